@@ -1,0 +1,45 @@
+// The flattened scene: host copies of every GPU table (layouts from shaders/shared/layout.h).
+// Built once from a parsed Scene; uploaded as is to the GPU, read as is by the CPU reference.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "../../shaders/shared/layout.h"
+#include "scene.h"
+
+namespace basalt {
+
+struct SceneTables {
+  gpu::Globals globals{};
+  std::vector<gpu::BvhNode> nodes;
+  std::vector<std::uint32_t> prim_refs;
+  std::vector<gpu::Triangle> triangles;
+  std::vector<gpu::Vertex> vertices;
+  std::vector<gpu::Mesh> meshes;
+  std::vector<gpu::Sphere> spheres;
+  std::vector<gpu::Material> materials;
+  std::vector<gpu::Light> lights;
+  std::vector<float> light_cdf;   // lights.size() + 1 entries, cdf[0] = 0, cdf[n] = 1
+  std::vector<float> filter_cdf;  // 2 (N + 1) entries for the gaussian filter, else empty
+  std::uint32_t features = 0;     // FEATURE_* bits
+
+  std::uint32_t width() const { return globals.image.x; }
+  std::uint32_t height() const { return globals.image.y; }
+};
+
+/// Timing of the table build, reported by --stats.
+struct BuildTimes {
+  double seconds_bvh = 0.0;
+};
+
+/// \brief Flattens a parsed scene into GPU tables and builds the BVH (binned SAH).
+/// \param seed replaces the Sampler seed when >= 0.
+/// \throws SceneError for content that parses but cannot be rendered (e.g. a non-uniformly
+///         scaled sphere).
+SceneTables build_tables(const Scene& scene, BuildTimes* times = nullptr);
+
+/// \brief Names of the feature bits set in \p features, for --stats.
+std::vector<std::string> feature_names(std::uint32_t features);
+
+}  // namespace basalt

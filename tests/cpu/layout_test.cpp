@@ -1,0 +1,57 @@
+// Asserts the size and offset of every shared host/device struct (std430 layout rules).
+#include <gtest/gtest.h>
+
+#include <cstddef>
+
+#include "../../shaders/shared/layout.h"
+
+using namespace basalt::gpu;
+
+TEST(Layout, SizesAndOffsets) {
+  EXPECT_EQ(sizeof(Globals), 192u);
+  EXPECT_EQ(offsetof(Globals, screen), 64u);
+  EXPECT_EQ(offsetof(Globals, lens), 80u);
+  EXPECT_EQ(offsetof(Globals, filter_radius), 96u);
+  EXPECT_EQ(offsetof(Globals, scene_sphere), 112u);
+  EXPECT_EQ(offsetof(Globals, image), 128u);
+  EXPECT_EQ(offsetof(Globals, counts), 144u);
+  EXPECT_EQ(offsetof(Globals, infinite_lights), 160u);
+  EXPECT_EQ(offsetof(Globals, features), 176u);
+  EXPECT_EQ(sizeof(BvhNode), 32u);
+  EXPECT_EQ(offsetof(BvhNode, a), 12u);
+  EXPECT_EQ(offsetof(BvhNode, hi), 16u);
+  EXPECT_EQ(offsetof(BvhNode, b), 28u);
+  EXPECT_EQ(sizeof(Triangle), 16u);
+  EXPECT_EQ(offsetof(Triangle, mesh), 12u);
+  EXPECT_EQ(sizeof(Vertex), 32u);
+  EXPECT_EQ(offsetof(Vertex, n_v), 16u);
+  EXPECT_EQ(sizeof(Mesh), 16u);
+  EXPECT_EQ(offsetof(Mesh, flags), 12u);
+  EXPECT_EQ(sizeof(Sphere), 80u);
+  EXPECT_EQ(offsetof(Sphere, axis_z), 48u);
+  EXPECT_EQ(offsetof(Sphere, light), 68u);
+  EXPECT_EQ(sizeof(Material), 176u);
+  EXPECT_EQ(offsetof(Material, value), 16u);
+  EXPECT_EQ(offsetof(Material, texture), 144u);
+  EXPECT_EQ(sizeof(Light), 80u);
+  EXPECT_EQ(offsetof(Light, pmf), 12u);
+  EXPECT_EQ(offsetof(Light, pos), 32u);
+  EXPECT_EQ(offsetof(Light, params), 64u);
+  EXPECT_EQ(sizeof(PassConstants), 32u);
+  EXPECT_EQ(sizeof(ProbeIn), 64u);
+  EXPECT_EQ(sizeof(ProbeOut), 48u);
+  EXPECT_EQ(offsetof(ProbeOut, u), 32u);
+}
+
+TEST(Layout, FeatureBitsAreDistinct) {
+  const uint bits[] = {FEATURE_TRIANGLES,   FEATURE_SPHERES,        FEATURE_LIGHT_POINT,
+                       FEATURE_LIGHT_SPOT,  FEATURE_LIGHT_DISTANT,  FEATURE_LIGHT_INFINITE,
+                       FEATURE_LIGHT_AREA,  FEATURE_MAT_DIFFUSE,    FEATURE_FILTER_GAUSSIAN,
+                       FEATURE_THIN_LENS,   FEATURE_SHADING_NORMALS};
+  static_assert(sizeof(bits) / sizeof(bits[0]) == FEATURE_COUNT);
+  uint all = 0;
+  for (uint b : bits) {
+    EXPECT_EQ(all & b, 0u);
+    all |= b;
+  }
+}
