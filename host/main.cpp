@@ -1,1 +1,155 @@
-int main() { return 0; }
+// basalt command line: parse a pbrt-v4 scene, render it on a Vulkan device or the CPU
+// reference, write EXR/PNG and optional JSON statistics.
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <optional>
+
+#include "cpu/render.h"
+#include "image/image_io.h"
+#include "scene/scene.h"
+#include "scene/tables.h"
+#include "util/progress.h"
+#include "util/stats.h"
+#include "vk/context.h"
+#include "vk/gpu_renderer.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// Seconds since \p t0.
+double since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+/// Exit codes: 0 success, 1 bad input or render failure, 2 bad command line,
+/// 3 rendered but the Vulkan validation layer reported errors.
+constexpr int kExitInput = 1, kExitValidation = 3;
+
+struct Options {
+  std::string scene, device = "auto", stats;
+  std::vector<std::string> outputs;
+  int spp = -1;
+  long long seed = -1;
+  bool quiet = false;
+};
+
+/// Parses, renders and writes; returns the process exit code.
+int run(const Options& opt) {
+  basalt::RenderStats st;
+  st.scene = opt.scene;
+  auto t0 = Clock::now();
+  basalt::Scene scene = basalt::load_scene(opt.scene);
+  st.seconds_parse = since(t0);
+  for (const auto& w : scene.warnings) std::cerr << w << "\n";
+  if (opt.spp >= 0) scene.sampler.spp = opt.spp;
+  if (opt.seed >= 0) scene.sampler.seed = int(opt.seed);
+  std::vector<std::string> outputs = opt.outputs;
+  if (outputs.empty()) outputs.push_back(scene.film.filename);
+  for (const auto& output : outputs)
+    if (!basalt::is_supported_image_path(output)) {
+      std::cerr << (opt.outputs.empty() ? scene.film.loc.str() + ": error: " : "basalt: error: ")
+                << "output '" << output << "' must end in .exr or .png\n";
+      return kExitInput;
+    }
+
+  basalt::BuildTimes times;
+  basalt::SceneTables tables = basalt::build_tables(scene, &times);
+  st.seconds_bvh = times.seconds_bvh;
+  st.width = int(tables.width());
+  st.height = int(tables.height());
+  st.spp = scene.sampler.spp;
+  st.seed = scene.sampler.seed;
+  st.features = basalt::feature_names(tables.features);
+  st.triangles = tables.triangles.size();
+  st.spheres = tables.spheres.size();
+  st.lights = tables.lights.size();
+  const std::uint64_t total = std::uint64_t(st.width) * st.height * st.spp;
+  basalt::ProgressBar bar(total, opt.quiet);
+  auto progress = [&](double f) { bar.update(f); };
+
+  std::vector<glm::vec4> accum;
+  std::size_t validation_errors = 0;
+  if (opt.device == "cpu") {
+    st.device = "cpu";
+    st.driver = "basalt CPU reference";
+    accum.assign(std::size_t(st.width) * st.height, glm::vec4(0.0f));
+    t0 = Clock::now();
+    st.rays = basalt::cpu::render(tables, 0, std::uint32_t(st.spp), accum, progress);
+    st.seconds_render = since(t0);
+  } else {
+    basalt::vkx::Context ctx(opt.device, basalt::vkx::Context::validation_requested());
+    st.device = ctx.info().name;
+    st.driver = ctx.info().driver;
+    basalt::vkx::GpuRenderer gpu(ctx, tables);
+    st.seconds_upload = gpu.seconds_upload;
+    st.seconds_pipeline = gpu.seconds_pipeline;
+    t0 = Clock::now();
+    gpu.render(0, std::uint32_t(st.spp), progress);
+    st.seconds_render = since(t0);
+    st.rays = gpu.rays();
+    accum = gpu.accum();
+    validation_errors = ctx.validation_errors();
+  }
+  bar.finish();
+  st.samples_per_second = st.seconds_render > 0 ? double(total) / st.seconds_render : 0.0;
+  st.rays_per_second = st.seconds_render > 0 ? double(st.rays) / st.seconds_render : 0.0;
+
+  const basalt::Image image = basalt::resolve(accum, st.width, st.height);
+  for (const auto& output : outputs) basalt::write_image(output, image);
+  st.peak_rss_bytes = basalt::peak_rss_bytes();
+  if (!opt.stats.empty()) basalt::write_file_atomic(opt.stats, basalt::to_json(st));
+  if (!opt.quiet)
+    std::fprintf(stderr, "basalt: %s  %dx%d %d spp  %.2f s  %.3g Msamples/s  %.3g Mrays/s  (%s)\n",
+                 outputs.front().c_str(), st.width, st.height, st.spp, st.seconds_render,
+                 st.samples_per_second * 1e-6, st.rays_per_second * 1e-6, st.device.c_str());
+  if (validation_errors) {
+    std::cerr << "basalt: error: the Vulkan validation layer reported " << validation_errors
+              << " error(s)\n";
+    return kExitValidation;
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"basalt: physically based rendering of pbrt-v4 scenes in Vulkan compute"};
+  Options opt;
+  bool list = false;
+  app.add_option("scene", opt.scene, "pbrt-v4 scene file");
+  app.add_option("-o,--output", opt.outputs,
+                 "output image: .exr (linear float) or .png (sRGB); may be repeated; "
+                 "default: the Film's filename");
+  app.add_option("--spp", opt.spp, "samples per pixel (default: the scene's Sampler)")
+      ->check(CLI::Range(1, 1 << 24));
+  app.add_option("--seed", opt.seed, "random seed (default: the scene's Sampler seed)")
+      ->check(CLI::Range(0ll, 0xffffffffll));
+  app.add_option("--device", opt.device,
+                 "auto (a GPU if present, else lavapipe), lavapipe, cpu (the CPU reference), "
+                 "or part of a Vulkan device name");
+  app.add_option("--stats", opt.stats, "write render statistics as JSON to this file");
+  app.add_flag("-q,--quiet", opt.quiet, "no progress bar or summary");
+  app.add_flag("--list-devices", list, "list Vulkan devices and exit");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    if (list) {
+      for (const auto& name : basalt::vkx::Context::list_devices()) std::cout << name << "\n";
+      return 0;
+    }
+    if (opt.scene.empty()) {
+      std::cerr << app.help();
+      return 2;
+    }
+    return run(opt);
+  } catch (const basalt::SceneError& e) {
+    std::cerr << e.what() << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << "basalt: error: " << e.what() << "\n";
+  }
+  return kExitInput;
+}

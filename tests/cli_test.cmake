@@ -1,1 +1,118 @@
-message(STATUS "cli tests pending")
+# Command-line tests of the basalt binary, run by CTest as `cmake -P`:
+# a good render writes EXR, PNG and statistics; every bad-input class fails with one
+# file:line:column message, a non-zero exit, and no output file left behind.
+# Inputs: -DBASALT=<binary> -DSOURCE_DIR=<repo> -DWORK=<scratch directory>
+
+file(REMOVE_RECURSE ${WORK})
+file(MAKE_DIRECTORY ${WORK})
+set(failures 0)
+
+function(fail msg)
+  message(SEND_ERROR "FAIL: ${msg}")
+endfunction()
+
+# A good scene: tiny, quick on lavapipe and on the CPU.
+file(WRITE ${WORK}/good.pbrt [=[
+LookAt 0 0 -5  0 0 0  0 1 0
+Camera "perspective" "float fov" [ 40 ]
+Film "rgb" "integer xresolution" [ 32 ] "integer yresolution" [ 24 ] "string filename" "film.exr"
+  "bool savefp16" false
+Sampler "independent" "integer pixelsamples" [ 4 ]
+WorldBegin
+LightSource "point" "rgb I" [ 10 10 10 ] "point3 from" [ 0 3 -3 ]
+Material "diffuse" "rgb reflectance" [ 0.5 0.5 0.5 ]
+Shape "sphere" "float radius" [ 1 ]
+]=])
+
+foreach(device lavapipe cpu)
+  execute_process(COMMAND ${BASALT} ${WORK}/good.pbrt --device ${device} --spp 2 --seed 3
+                          -o ${WORK}/good-${device}.exr -o ${WORK}/good-${device}.png
+                          --stats ${WORK}/stats-${device}.json
+                  RESULT_VARIABLE rc ERROR_VARIABLE err OUTPUT_VARIABLE out)
+  if(NOT rc EQUAL 0)
+    fail("good scene on ${device}: exit ${rc}: ${err}")
+  endif()
+  foreach(f good-${device}.exr good-${device}.png stats-${device}.json)
+    if(NOT EXISTS ${WORK}/${f})
+      fail("good scene on ${device}: ${f} not written")
+    endif()
+  endforeach()
+  # The unused Film parameter is a warning with its location, not an error.
+  if(NOT err MATCHES "good\\.pbrt:4:[0-9]+: warning:.*savefp16")
+    fail("good scene on ${device}: no located warning for savefp16: ${err}")
+  endif()
+  file(READ ${WORK}/stats-${device}.json json)
+  foreach(key device driver width height spp seconds_parse seconds_bvh seconds_upload
+              seconds_pipeline seconds_render samples_per_second rays_per_second
+              peak_rss_bytes features)
+    string(JSON value ERROR_VARIABLE jerr GET "${json}" ${key})
+    if(jerr)
+      fail("stats on ${device}: key ${key} missing: ${jerr}")
+    endif()
+  endforeach()
+  string(JSON w GET "${json}" width)
+  string(JSON spp GET "${json}" spp)
+  string(JSON f0 GET "${json}" features 0)
+  if(NOT w EQUAL 32 OR NOT spp EQUAL 2 OR f0 STREQUAL "")
+    fail("stats on ${device}: width ${w}, spp ${spp}, first feature '${f0}'")
+  endif()
+endforeach()
+
+# Without -o the Film filename is used (relative to the working directory).
+execute_process(COMMAND ${BASALT} ${WORK}/good.pbrt --device cpu --spp 1 --quiet
+                WORKING_DIRECTORY ${WORK} RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT EXISTS ${WORK}/film.exr)
+  fail("Film filename default: exit ${rc}: ${err}")
+endif()
+
+# bad_case(name expected-location-regex scene-text): must fail with that location and
+# leave no output file (nor a temporary one).
+function(bad_case name where text)
+  file(WRITE ${WORK}/${name}.pbrt "${text}")
+  execute_process(COMMAND ${BASALT} ${WORK}/${name}.pbrt --device cpu --quiet
+                          -o ${WORK}/${name}.exr
+                  RESULT_VARIABLE rc ERROR_VARIABLE err OUTPUT_VARIABLE out)
+  if(rc EQUAL 0)
+    fail("${name}: exit 0")
+  endif()
+  if(NOT err MATCHES "${where}: error: ")
+    fail("${name}: message does not name ${where}: ${err}")
+  endif()
+  file(GLOB left ${WORK}/${name}.exr*)
+  if(left)
+    fail("${name}: output left behind: ${left}")
+  endif()
+endfunction()
+
+set(head "Film \"rgb\" \"integer xresolution\" 8 \"integer yresolution\" 8\nWorldBegin\n")
+set(sphere "Shape \"sphere\"\n")
+bad_case(unknown_directive "unknown_directive\\.pbrt:3:1" "${head}Frobnicate 1 2 3\n${sphere}")
+bad_case(wrong_type "wrong_type\\.pbrt:1:[0-9]+"
+         "Camera \"perspective\" \"string fov\" \"wide\"\nWorldBegin\n${sphere}")
+bad_case(unterminated "unterminated\\.pbrt:3:[0-9]+" "${head}Material \"diffuse\n${sphere}")
+bad_case(malformed_number "malformed_number\\.pbrt:3:[0-9]+"
+         "${head}Shape \"sphere\" \"float radius\" [ 1.2.3 ]\n")
+bad_case(negative_resolution "negative_resolution\\.pbrt:1:[0-9]+"
+         "Film \"rgb\" \"integer xresolution\" [ -5 ]\nWorldBegin\n${sphere}")
+bad_case(missing_include "missing_include\\.pbrt:3:[0-9]+" "${head}Include \"nowhere.pbrt\"\n")
+bad_case(missing_ply "missing_ply\\.pbrt:3:[0-9]+"
+         "${head}Shape \"plymesh\" \"string filename\" \"nowhere.ply\"\n")
+bad_case(unknown_material "unknown_material\\.pbrt:3:[0-9]+"
+         "${head}Material \"velvet\"\n${sphere}")
+bad_case(empty_scene "empty_scene\\.pbrt(:[0-9]+:[0-9]+)?" "# nothing here\n")
+
+# A missing scene file and an unsupported output format fail before any rendering.
+execute_process(COMMAND ${BASALT} ${WORK}/does-not-exist.pbrt -o ${WORK}/x.exr
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(rc EQUAL 0 OR NOT err MATCHES "does-not-exist\\.pbrt" OR EXISTS ${WORK}/x.exr)
+  fail("missing scene file: exit ${rc}: ${err}")
+endif()
+execute_process(COMMAND ${BASALT} ${WORK}/good.pbrt --device cpu -o ${WORK}/x.jpg
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(rc EQUAL 0 OR EXISTS ${WORK}/x.jpg)
+  fail("unsupported output format: exit ${rc}: ${err}")
+endif()
+execute_process(COMMAND ${BASALT} --help RESULT_VARIABLE rc OUTPUT_VARIABLE out)
+if(NOT rc EQUAL 0 OR NOT out MATCHES "--spp")
+  fail("--help: exit ${rc}")
+endif()

@@ -34,10 +34,15 @@ struct BuildTimes {
 };
 
 /// \brief Flattens a parsed scene into GPU tables and builds the BVH (binned SAH).
-/// \param seed replaces the Sampler seed when >= 0.
+/// The seed in globals.image.w is the Sampler seed; a caller that overrides it (--seed) writes
+/// globals.image.w afterwards. With no lights, light_cdf is {0} and counts.x is 0.
+/// \param times if not null, receives the BVH build time.
+/// \param warnings if not null, receives "file:line:column: warning: ..." lines (e.g. dropped
+///        degenerate triangles).
 /// \throws SceneError for content that parses but cannot be rendered (e.g. a non-uniformly
 ///         scaled sphere).
-SceneTables build_tables(const Scene& scene, BuildTimes* times = nullptr);
+SceneTables build_tables(const Scene& scene, BuildTimes* times = nullptr,
+                         std::vector<std::string>* warnings = nullptr);
 
 /// \brief Names of the feature bits set in \p features, for --stats.
 std::vector<std::string> feature_names(std::uint32_t features);

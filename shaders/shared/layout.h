@@ -35,11 +35,12 @@ using mat4 = glm::mat4;
 #define BINDING_LIGHT_CDF 9
 #define BINDING_FILTER_CDF 10
 #define BINDING_ACCUM 11
-#define BINDING_COUNT 12
+#define BINDING_COUNTERS 12  // uint counters[]: [0] rays traced (atomicAdd once per invocation)
+#define BINDING_COUNT 13
 
 // Probe shaders (tests) add their input and output tables to the same set.
-#define BINDING_PROBE_IN 12
-#define BINDING_PROBE_OUT 13
+#define BINDING_PROBE_IN 13
+#define BINDING_PROBE_OUT 14
 
 // ---- feature bits (specialization constant 0 of the render pipeline) --------------------
 // The host derives the scene's feature set; the pipeline is specialised so that code for

@@ -1,6 +1,69 @@
 #version 460
-// Placeholder: replaced by the path tracer.
+// Test probe: runs single shader functions on host-given inputs so that tests can compare
+// them with the CPU reference (host/cpu/probe.cpp). One invocation per ProbeIn entry; the
+// number of entries is pc.pixel_count. Compiled with FEATURES all ones (the default).
 #extension GL_GOOGLE_include_directive : require
-#include "shared/layout.h"
+
+#include "include/bindings.glsl"
+#include "include/integrator.glsl"
+
 layout(local_size_x = 64) in;
-void main() {}
+
+layout(push_constant) uniform Pass {
+  PassConstants pc;
+};
+
+layout(std430, set = 0, binding = BINDING_PROBE_IN) restrict readonly buffer ProbeInBuffer {
+  ProbeIn probe_in[];
+};
+layout(std430, set = 0, binding = BINDING_PROBE_OUT) restrict writeonly buffer ProbeOutBuffer {
+  ProbeOut probe_out[];
+};
+
+// Closest hit as (t, b1, b2, 0); t = -1 for a miss.
+vec4 hit_record(Hit h) { return vec4(h.prim == INVALID_INDEX ? -1.0 : h.t, h.b1, h.b2, 0.0); }
+
+void main() {
+  uint i = gl_GlobalInvocationID.x;
+  if (i >= pc.pixel_count) return;
+  ProbeIn q = probe_in[i];
+  ProbeOut r = ProbeOut(vec4(0.0), vec4(0.0), uvec4(0u));
+  Ray ray = Ray(q.o_tmax.xyz, q.o_tmax.w, q.d.xyz);
+  switch (q.key.x) {
+    case PROBE_CLOSEST: {
+      Hit h = intersect_closest(ray);
+      r.f0 = hit_record(h);
+      r.u.x = h.prim;
+      break;
+    }
+    case PROBE_OCCLUDED:
+      r.u.x = intersect_any(ray) ? 1u : 0u;
+      break;
+    case PROBE_RESPAWN: {
+      Hit h = intersect_closest(ray);
+      r.f0 = hit_record(h);
+      r.u.x = h.prim;
+      r.f1 = vec4(-1.0, 0.0, 0.0, 0.0);
+      r.u.y = INVALID_INDEX;
+      if (h.prim != INVALID_INDEX) {
+        SurfacePoint sp = surface_point(ray, h);
+        Hit h2 = intersect_closest(spawn_ray(sp.p, sp.ng, q.extra.xyz));
+        r.f1 = hit_record(h2);
+        r.u.y = h2.prim;
+      }
+      break;
+    }
+    case PROBE_RNG:
+      r.f0.x = rng(q.key.y, q.key.z, q.key.w, floatBitsToUint(q.extra.x));
+      break;
+    case PROBE_CAMERA: {
+      CameraRay cr = camera_ray(q.key.y, q.key.z, q.key.w);
+      r.f0 = vec4(cr.o, 0.0);
+      r.f1 = vec4(cr.d, 0.0);
+      break;
+    }
+    default:
+      break;
+  }
+  probe_out[i] = r;
+}

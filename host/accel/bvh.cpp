@@ -1,0 +1,275 @@
+// Binned-SAH BVH build (Wald 2007, "On fast construction of SAH-based bounding volume
+// hierarchies"; pbrt-v4 7.3.2), emitted directly as the flat gpu::BvhNode array.
+#include "accel/bvh.h"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <exception>
+#include <stdexcept>
+#include <thread>
+
+namespace basalt {
+namespace {
+
+// One primitive during the build: its box, split key and input index. Partitioning moves these
+// records (not indices into them) so every pass reads memory sequentially.
+struct Item {
+  glm::vec3 lo;
+  std::uint32_t index;
+  glm::vec3 hi;
+  glm::vec3 c;
+};
+
+constexpr int kMaxBins = 64;
+// Subtrees with fewer primitives than this are not worth a thread.
+constexpr std::uint32_t kParallelMin = 16 * 1024;
+
+struct Bin {
+  Aabb box;
+  std::uint32_t count = 0;
+};
+
+class Builder {
+ public:
+  Builder(std::vector<Item>& items, const BvhOptions& options, std::uint32_t thread_levels)
+      : items_(items),
+        options_(options),
+        bins_(std::clamp(options.bins, 2, kMaxBins)),
+        thread_levels_(thread_levels) {}
+
+  // Builds the subtree over items_[begin, end) into nodes[node]; children are appended to nodes.
+  // Returns the depth of the deepest node of the subtree, counted from the tree root.
+  std::uint32_t build(std::vector<gpu::BvhNode>& nodes, std::uint32_t node, std::uint32_t begin,
+                      std::uint32_t end, std::uint32_t depth) {
+    Aabb box, cbox;
+    for (std::uint32_t i = begin; i < end; ++i) {
+      const Item& it = items_[i];
+      box.lo = glm::min(box.lo, it.lo);
+      box.hi = glm::max(box.hi, it.hi);
+      cbox.extend(it.c);
+    }
+    nodes[node].lo = box.lo;
+    nodes[node].hi = box.hi;
+    const std::uint32_t n = end - begin;
+    std::uint32_t mid = n <= kBvhLeafAlways ? 0 : split(begin, end, box, cbox, depth);
+    if (mid == 0) {  // leaf
+      nodes[node].a = begin;
+      nodes[node].b = n;
+      return depth;
+    }
+    const auto c = static_cast<std::uint32_t>(nodes.size());
+    nodes.resize(c + 2);
+    nodes[node].a = c;
+    nodes[node].b = 0;
+    if (depth < thread_levels_ && n >= kParallelMin) {
+      // Right subtree on a worker into its own array (root at 0), spliced in after the join so
+      // the output is the same as a serial build's.
+      std::vector<gpu::BvhNode> right(1);
+      std::uint32_t right_depth = 0;
+      std::exception_ptr error;
+      std::thread worker([&] {
+        try {
+          right_depth = build(right, 0, mid, end, depth + 1);
+        } catch (...) {
+          error = std::current_exception();
+        }
+      });
+      std::uint32_t left_depth = 0;
+      try {
+        left_depth = build(nodes, c, begin, mid, depth + 1);
+      } catch (...) {
+        worker.join();
+        throw;
+      }
+      worker.join();
+      if (error) std::rethrow_exception(error);
+      splice(nodes, c + 1, right);
+      return std::max(left_depth, right_depth);
+    }
+    std::uint32_t left_depth = build(nodes, c, begin, mid, depth + 1);
+    std::uint32_t right_depth = build(nodes, c + 1, mid, end, depth + 1);
+    return std::max(left_depth, right_depth);
+  }
+
+ private:
+  // Copies a subtree built in its own array (root at sub[0]) into nodes: the root into slot,
+  // sub[k] (k >= 1) to the end of nodes, relocating child indices.
+  static void splice(std::vector<gpu::BvhNode>& nodes, std::uint32_t slot,
+                     const std::vector<gpu::BvhNode>& sub) {
+    const auto base = static_cast<std::uint32_t>(nodes.size());
+    auto relocate = [base](gpu::BvhNode n) {
+      if (n.b == 0) n.a = base + n.a - 1;
+      return n;
+    };
+    nodes[slot] = relocate(sub[0]);
+    nodes.reserve(nodes.size() + sub.size() - 1);
+    for (std::size_t k = 1; k < sub.size(); ++k) nodes.push_back(relocate(sub[k]));
+  }
+
+  // Bin of a centroid coordinate; NaN and out-of-range values clamp (never UB on conversion).
+  // The same expression is used for binning and partitioning, so the counts agree exactly.
+  int bin_of(float x, float lo, float scale) const {
+    float t = (x - lo) * scale;
+    if (t >= static_cast<float>(bins_ - 1)) return bins_ - 1;
+    return t > 0.0f ? static_cast<int>(t) : 0;
+  }
+
+  // Chooses a split of items_[begin, end) and partitions it; returns the first index of the
+  // right half, or 0 when the node should be a leaf.
+  std::uint32_t split(std::uint32_t begin, std::uint32_t end, const Aabb& box, const Aabb& cbox,
+                      std::uint32_t depth) {
+    const std::uint32_t n = end - begin;
+    if (options_.split == BvhOptions::Split::Median || depth >= kBvhSahDepth)
+      return median_split(begin, end, cbox);
+
+    const glm::vec3 extent = cbox.hi - cbox.lo;
+    std::array<float, 3> scale{};
+    std::array<bool, 3> usable{};
+    for (int a = 0; a < 3; ++a) {
+      scale[a] = static_cast<float>(bins_) / extent[a];
+      usable[a] = extent[a] > 0.0f && std::isfinite(scale[a]);
+    }
+    if (!usable[0] && !usable[1] && !usable[2]) {
+      // All centroids coincide: no plane separates them.
+      return n <= kBvhMaxLeaf ? 0 : median_split(begin, end, cbox);
+    }
+
+    std::array<std::array<Bin, kMaxBins>, 3> bins{};
+    for (std::uint32_t i = begin; i < end; ++i) {
+      const Item& it = items_[i];
+      for (int a = 0; a < 3; ++a) {
+        if (!usable[a]) continue;
+        Bin& bin = bins[a][bin_of(it.c[a], cbox.lo[a], scale[a])];
+        bin.box.lo = glm::min(bin.box.lo, it.lo);
+        bin.box.hi = glm::max(bin.box.hi, it.hi);
+        ++bin.count;
+      }
+    }
+
+    // SAH scaled by A(node): cost(split s) = Ct A + Ci (A_L N_L + A_R N_R), leaf = Ci N A.
+    // Comparing unnormalised costs stays meaningful when A(node) is 0.
+    const double area = box.area();
+    double best_cost = std::numeric_limits<double>::infinity();
+    int best_axis = -1, best_bin = 0;
+    for (int a = 0; a < 3; ++a) {
+      if (!usable[a]) continue;
+      std::array<double, kMaxBins> right_cost{};  // right_cost[s]: bins [s, bins_)
+      std::array<std::uint32_t, kMaxBins> right_count{};
+      Aabb acc;
+      std::uint32_t count = 0;
+      for (int s = bins_ - 1; s >= 1; --s) {
+        acc.extend(bins[a][s].box);
+        count += bins[a][s].count;
+        right_cost[s] = static_cast<double>(acc.area()) * count;
+        right_count[s] = count;
+      }
+      acc = Aabb{};
+      count = 0;
+      for (int s = 1; s < bins_; ++s) {  // left = bins [0, s)
+        acc.extend(bins[a][s - 1].box);
+        count += bins[a][s - 1].count;
+        if (count == 0 || right_count[s] == 0) continue;
+        double cost = kBvhTraversalCost * area +
+                      kBvhIntersectCost * (static_cast<double>(acc.area()) * count + right_cost[s]);
+        if (cost < best_cost) {
+          best_cost = cost;
+          best_axis = a;
+          best_bin = s;
+        }
+      }
+    }
+    if (best_axis < 0)  // every centroid fell into one bin on every usable axis
+      return n <= kBvhMaxLeaf ? 0 : median_split(begin, end, cbox);
+    const double leaf_cost = kBvhIntersectCost * static_cast<double>(n) * area;
+    if (n <= kBvhMaxLeaf && leaf_cost <= best_cost) return 0;
+
+    const int a = best_axis;
+    const float lo = cbox.lo[a], sc = scale[a];
+    auto* first = items_.data() + begin;
+    auto* split_at = std::partition(first, items_.data() + end, [&](const Item& it) {
+      return bin_of(it.c[a], lo, sc) < best_bin;
+    });
+    return static_cast<std::uint32_t>(split_at - items_.data());
+  }
+
+  // Object median along the largest centroid extent; halves the index range when the
+  // centroids coincide. Always returns a split with both halves non-empty (n >= 2).
+  std::uint32_t median_split(std::uint32_t begin, std::uint32_t end, const Aabb& cbox) {
+    const std::uint32_t mid = begin + (end - begin) / 2;
+    const glm::vec3 extent = cbox.hi - cbox.lo;
+    int a = 0;
+    if (extent.y > extent[a]) a = 1;
+    if (extent.z > extent[a]) a = 2;
+    if (extent[a] > 0.0f) {
+      std::nth_element(items_.begin() + begin, items_.begin() + mid, items_.begin() + end,
+                       [a](const Item& x, const Item& y) { return x.c[a] < y.c[a]; });
+    }
+    return mid;
+  }
+
+  std::vector<Item>& items_;
+  const BvhOptions& options_;
+  const int bins_;
+  const std::uint32_t thread_levels_;
+};
+
+}  // namespace
+
+Bvh build_bvh(std::span<const Aabb> bounds, std::span<const glm::vec3> centroids,
+              const BvhOptions& options) {
+  Bvh bvh;
+  const std::size_t n = bounds.size();
+  if (n == 0) return bvh;
+  if (n > gpu::PRIM_INDEX_MASK) throw std::length_error("build_bvh: too many primitives");
+  if (!centroids.empty() && centroids.size() != n)
+    throw std::invalid_argument("build_bvh: centroids and bounds differ in size");
+
+  std::vector<Item> items(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    items[i].lo = bounds[i].lo;
+    items[i].hi = bounds[i].hi;
+    items[i].c = centroids.empty() ? bounds[i].center() : centroids[i];
+    items[i].index = static_cast<std::uint32_t>(i);
+  }
+
+  // Threads for the top levels: each level up to thread_levels hands its right subtree to a
+  // new thread, so about 2^thread_levels builders run at once.
+  unsigned threads = options.max_threads > 0 ? static_cast<unsigned>(options.max_threads)
+                                             : std::max(1u, std::thread::hardware_concurrency());
+  std::uint32_t thread_levels = threads <= 1 ? 0 : std::bit_width(threads - 1u) + 1u;
+
+  bvh.nodes.reserve(std::min<std::size_t>(2 * n, 1u << 20));
+  bvh.nodes.resize(1);
+  Builder builder(items, options, thread_levels);
+  bvh.depth = builder.build(bvh.nodes, 0, 0, static_cast<std::uint32_t>(n), 0);
+  bvh.nodes.shrink_to_fit();
+
+  bvh.prim_order.resize(n);
+  for (std::size_t i = 0; i < n; ++i) bvh.prim_order[i] = items[i].index;
+  return bvh;
+}
+
+double bvh_sah_cost(std::span<const gpu::BvhNode> nodes, float traversal_cost,
+                    float intersect_cost) {
+  if (nodes.empty()) return 0.0;
+  auto area = [](const gpu::BvhNode& n) {
+    Aabb b;
+    b.lo = n.lo;
+    b.hi = n.hi;
+    return static_cast<double>(b.area());
+  };
+  double root = area(nodes[0]);
+  if (!(root > 0.0)) root = 1.0;
+  double cost = 0.0;
+  for (const gpu::BvhNode& n : nodes) {
+    if (n.b == 0)
+      cost += traversal_cost * area(n) / root;
+    else
+      cost += intersect_cost * static_cast<double>(n.b) * area(n) / root;
+  }
+  return cost;
+}
+
+}  // namespace basalt

@@ -1,0 +1,127 @@
+// The path integrator of the CPU reference (docs/path-spec.md section 7).
+#include "cpu/integrator.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "cpu/bsdf.h"
+#include "cpu/camera.h"
+#include "cpu/lights.h"
+#include "cpu/sampling.h"
+#include "cpu/surface.h"
+
+namespace basalt::cpu {
+namespace {
+
+/// Material of a hit; a missing material (INVALID_INDEX) is a type-0 material: black, no
+/// BSDF sample, so the path ends there after its emission is counted.
+const gpu::Material& material_of(const SceneTables& scene, std::uint32_t index) {
+  static const gpu::Material none{};
+  return index < scene.materials.size() ? scene.materials[index] : none;
+}
+
+/// Direct lighting at a non-specular vertex b (spec section 7 "NEE"; pbrt-v4
+/// PathIntegrator::SampleLd): one light chosen by the light CDF, one sample on it.
+glm::vec3 sample_direct(const SceneTables& scene, const SurfacePoint& sp,
+                        const gpu::Material& mat, glm::vec3 wo, std::uint32_t b,
+                        const PathRng& r, std::uint64_t& rays) {
+  const std::uint32_t li = select_light(scene, r(dim::bounce(b, dim::LIGHT_SELECT)));
+  if (li == gpu::INVALID_INDEX) return glm::vec3(0.0f);
+  const gpu::Light& light = scene.lights[li];
+  if (!(light.pmf > 0.0f)) return glm::vec3(0.0f);  // never picked by a consistent CDF
+  const LightSample ls = sample_light(
+      scene, light, sp.g.p, sp.g.ng,
+      glm::vec2(r(dim::bounce(b, dim::LIGHT_U0)), r(dim::bounce(b, dim::LIGHT_U1))));
+  if (!(ls.pdf > 0.0f) || !any_positive(ls.Li)) return glm::vec3(0.0f);
+  const glm::vec3 wi = sp.frame.to_local(ls.wi);
+  const glm::vec3 f = bsdf_eval(mat, wo, wi) * std::fabs(glm::dot(ls.wi, sp.g.ns));
+  if (!any_positive(f)) return glm::vec3(0.0f);
+  ++rays;
+  if (intersect_any(scene, shadow_ray(sp.g.p, sp.g.ng, ls))) return glm::vec3(0.0f);
+  if (ls.delta) return f * ls.Li / light.pmf;
+  const float pl = light.pmf * ls.pdf;
+  if (!(pl > 0.0f)) return glm::vec3(0.0f);  // underflow of pmf * pdf
+  return f * ls.Li * power_heuristic(pl, bsdf_pdf(mat, wo, wi)) / pl;
+}
+
+}  // namespace
+
+glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::uint64_t* rays) {
+  const gpu::Globals& g = scene.globals;
+  const std::uint32_t max_depth = g.image.z;
+  const std::uint32_t n_inf = std::min(g.counts.y, gpu::MAX_INFINITE_LIGHTS);
+  glm::vec3 L(0.0f), beta(1.0f), p_prev(0.0f), ng_prev(0.0f);
+  bool specular = false;
+  float pdf_prev = 0.0f;
+  std::uint32_t depth = 0;
+  std::uint64_t nrays = 0;
+  for (;;) {
+    const Hit hit = intersect_closest(scene, ray);
+    ++nrays;
+    if (!hit.valid()) {
+      // Escaped: every infinite light, MIS-weighted against its uniform-sphere density.
+      for (std::uint32_t i = 0; i < n_inf; ++i) {
+        const std::uint32_t li = g.infinite_lights[int(i)];
+        if (li >= scene.lights.size()) continue;
+        const gpu::Light& light = scene.lights[li];
+        const float w = (depth == 0 || specular)
+                            ? 1.0f
+                            : power_heuristic(pdf_prev, light.pmf / (4.0f * PI));
+        L += beta * w * glm::vec3(light.L);
+      }
+      break;
+    }
+    const SurfacePoint sp = surface_point(scene, ray, hit);
+    // Emission of an area light, MIS-weighted against light sampling from the previous vertex.
+    if (sp.light < scene.lights.size()) {
+      const gpu::Light& light = scene.lights[sp.light];
+      const glm::vec3 Le = area_Le(light, sp.g.ng, -ray.d);
+      if (any_positive(Le)) {
+        if (depth == 0 || specular) {
+          L += beta * Le;
+        } else {
+          const float pl = light.pmf * area_light_pdf(scene, light, p_prev, ng_prev, sp.g.p, sp.g.ng, ray.d);
+          L += beta * power_heuristic(pdf_prev, pl) * Le;
+        }
+      }
+    }
+    if (depth == max_depth) break;
+    const std::uint32_t b = depth;
+    ++depth;
+    const gpu::Material& mat = material_of(scene, sp.material);
+    const glm::vec3 wo = sp.frame.to_local(-ray.d);
+    if (bsdf_is_nonspecular(mat)) L += beta * sample_direct(scene, sp, mat, wo, b, r, nrays);
+    // Continue the path by sampling the BSDF.
+    const BsdfSample bs =
+        bsdf_sample(mat, wo,
+                    glm::vec3(r(dim::bounce(b, dim::BSDF_LOBE)), r(dim::bounce(b, dim::BSDF_U0)),
+                              r(dim::bounce(b, dim::BSDF_U1))));
+    if (!bs.valid || !any_positive(bs.f) || bs.pdf == 0.0f || bs.wi.z == 0.0f) break;
+    const glm::vec3 wi = sp.frame.to_world(bs.wi);
+    beta *= bs.f * std::fabs(glm::dot(wi, sp.g.ns)) / bs.pdf;
+    pdf_prev = bs.pdf;
+    specular = bs.specular;
+    p_prev = sp.g.p;
+    ng_prev = sp.g.ng;
+    ray = spawn_ray(sp.g.p, sp.g.ng, wi);
+    // Russian roulette (pbrt-v4 13.1.3), from the third vertex on.
+    const float mb = max_component(beta);
+    if (mb < 1.0f && depth > 1) {
+      const float q = std::max(0.0f, 1.0f - mb);
+      if (r(dim::bounce(b, dim::ROULETTE)) < q) break;
+      beta /= 1.0f - q;
+    }
+  }
+  if (rays) *rays += nrays;
+  // Guard against NaN/inf from degenerate input (never produced by valid tables).
+  if (!std::isfinite(L.x) || !std::isfinite(L.y) || !std::isfinite(L.z)) return glm::vec3(0.0f);
+  return L;
+}
+
+glm::vec3 path_radiance(const SceneTables& scene, std::uint32_t px, std::uint32_t py,
+                        std::uint32_t s, std::uint64_t* rays) {
+  const PathRng r{px, py, s, scene.globals.image.w};
+  return trace_path(scene, camera_ray(scene, px, py, s), r, rays);
+}
+
+}  // namespace basalt::cpu

@@ -1,0 +1,302 @@
+// Ray-primitive intersection and BVH traversal of the CPU reference
+// (docs/path-spec.md section 3).
+#include "cpu/intersect.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+namespace basalt::cpu {
+namespace {
+
+/// pbrt-v4 gamma(n) = n eps / (1 - n eps) with eps = 2^-24 (pbrt-v4 6.8.1).
+constexpr float gamma_n(int n) {
+  return (float(n) * 0x1p-24f) / (1.0f - float(n) * 0x1p-24f);
+}
+/// Far-plane scale of the slab test (pbrt-v4 6.1.2: tFar *= 1 + 2 gamma(3)).
+constexpr float SLAB_FAR_SCALE = 1.0f + 2.0f * gamma_n(3);
+
+/// pbrt-v4 MaxComponentIndex: index of the largest component (ties go to the later axis
+/// exactly as pbrt-v4 writes the comparisons).
+inline int max_component_index(glm::vec3 v) {
+  return (v.x > v.y) ? ((v.x > v.z) ? 0 : 2) : ((v.y > v.z) ? 1 : 2);
+}
+
+/// Per-ray constants of the watertight triangle test (Woop et al. 2013, section 3): the axis
+/// permutation (kz = pbrt-v4 MaxComponentIndex of |d|) and the shear. pbrt-v4 6.5.3 computes
+/// them per triangle; the values are the same, so computing them once per ray is exact.
+struct RayTri {
+  glm::vec3 o;
+  int kx, ky, kz;
+  float sx, sy, sz;
+  explicit RayTri(glm::vec3 origin, glm::vec3 d) : o(origin) {
+    kz = max_component_index(glm::abs(d));
+    kx = kz + 1;
+    if (kx == 3) kx = 0;
+    ky = kx + 1;
+    if (ky == 3) ky = 0;
+    sx = -d[kx] / d[kz];
+    sy = -d[ky] / d[kz];
+    sz = 1.0f / d[kz];
+  }
+};
+
+/// Watertight triangle test (Woop et al. 2013; pbrt-v4 6.5.3) with no upper bound on t:
+/// returns t > 0 and barycentrics, or t = -1. Edge functions are plain a*b - c*d (the spec's
+/// "precise", no FMA): exact negation for the shared edge of two triangles keeps it watertight.
+inline PrimHit triangle_hit(const RayTri& r, glm::vec3 p0, glm::vec3 p1, glm::vec3 p2) {
+  PrimHit miss;
+  // Translate the vertices to the ray origin, permute so that the largest |d| is along z.
+  const glm::vec3 q0 = p0 - r.o, q1 = p1 - r.o, q2 = p2 - r.o;
+  glm::vec3 p0t(q0[r.kx], q0[r.ky], q0[r.kz]);
+  glm::vec3 p1t(q1[r.kx], q1[r.ky], q1[r.kz]);
+  glm::vec3 p2t(q2[r.kx], q2[r.ky], q2[r.kz]);
+  // Shear so that the ray direction is +z.
+  const float sx = r.sx, sy = r.sy, sz = r.sz;
+  p0t.x += sx * p0t.z;
+  p0t.y += sy * p0t.z;
+  p1t.x += sx * p1t.z;
+  p1t.y += sy * p1t.z;
+  p2t.x += sx * p2t.z;
+  p2t.y += sy * p2t.z;
+  // Edge functions.
+  const float e0 = p1t.x * p2t.y - p1t.y * p2t.x;
+  const float e1 = p2t.x * p0t.y - p2t.y * p0t.x;
+  const float e2 = p0t.x * p1t.y - p0t.y * p1t.x;
+  if ((e0 < 0 || e1 < 0 || e2 < 0) && (e0 > 0 || e1 > 0 || e2 > 0)) return miss;
+  const float det = e0 + e1 + e2;
+  if (det == 0) return miss;
+  // Scaled distance; its sign must match det's for t > 0.
+  p0t.z *= sz;
+  p1t.z *= sz;
+  p2t.z *= sz;
+  const float t_scaled = e0 * p0t.z + e1 * p1t.z + e2 * p2t.z;
+  if (det < 0 && t_scaled >= 0) return miss;
+  if (det > 0 && t_scaled <= 0) return miss;
+  const float inv_det = 1.0f / det;
+  const float t = t_scaled * inv_det;
+  if (!(t > 0.0f)) return miss;
+  // Spec section 3: a triangle whose cross(p0 - p2, p1 - p2) is the zero vector misses.
+  const glm::vec3 c = glm::cross(p0 - p2, p1 - p2);
+  if (c.x == 0.0f && c.y == 0.0f && c.z == 0.0f) return miss;
+  return PrimHit{t, e1 * inv_det, e2 * inv_det};
+}
+
+/// Robust quadratic ray-sphere test (pbrt-v4 6.2.2, in float and world space, spec section 3)
+/// with no upper bound on t: returns the nearer positive root, or t = -1.
+inline PrimHit sphere_hit(glm::vec3 o, glm::vec3 d, glm::vec3 center, float r) {
+  PrimHit miss;
+  const glm::vec3 f = o - center;
+  const float a = glm::dot(d, d);
+  if (!(a > 0.0f)) return miss;
+  const float b = 2.0f * glm::dot(d, f);
+  const float c = glm::dot(f, f) - r * r;
+  // pbrt-v4 6.2.2: discriminant from the distance l of the closest approach point.
+  const glm::vec3 v = f - (b / (2.0f * a)) * d;
+  const float l = glm::length(v);
+  const float disc = 4.0f * a * (r + l) * (r - l);
+  if (disc < 0.0f) return miss;
+  const float root = std::sqrt(disc);
+  const float q = b < 0.0f ? -0.5f * (b - root) : -0.5f * (b + root);
+  // q == 0 only for a tangent ray starting on the sphere: c / q is not a hit (inf or NaN).
+  if (q == 0.0f) return miss;
+  float t0 = q / a, t1 = c / q;
+  if (t0 > t1) std::swap(t0, t1);
+  const float t = t0 > 0.0f ? t0 : t1;
+  if (!(t > 0.0f)) return miss;
+  return PrimHit{t, 0.0f, 0.0f};
+}
+
+/// Ray data shared by all tests of one traversal.
+struct RayBox {
+  glm::vec3 o;
+  glm::vec3 d;
+  glm::vec3 inv;  // 1 / d with |d| < 1e-20 replaced by copysign(1e-20, d) (spec section 3)
+  RayTri tri;
+  explicit RayBox(const Ray& r) : o(r.o), d(r.d), tri(r.o, r.d) {
+    for (int i = 0; i < 3; ++i) {
+      const float di = std::fabs(r.d[i]) < 1e-20f ? std::copysign(1e-20f, r.d[i]) : r.d[i];
+      inv[i] = 1.0f / di;
+    }
+  }
+};
+
+/// Primitive test by reference, no upper bound on t.
+inline PrimHit prim_hit(const SceneTables& s, std::uint32_t ref, const RayBox& rb) {
+  if (ref & gpu::PRIM_SPHERE_BIT) {
+    const gpu::Sphere& sp = s.spheres[ref & gpu::PRIM_INDEX_MASK];
+    return sphere_hit(rb.o, rb.d, glm::vec3(sp.center_radius), sp.center_radius.w);
+  }
+  const gpu::Triangle& tri = s.triangles[ref];
+  return triangle_hit(rb.tri, glm::vec3(s.vertices[tri.v0].p_u), glm::vec3(s.vertices[tri.v1].p_u),
+                      glm::vec3(s.vertices[tri.v2].p_u));
+}
+
+/// Slab test (Kay & Kajiya 1986; pbrt-v4 6.1.2 with tFar scaled by 1 + 2 gamma(3)).
+/// Inclusive at tlimit so that equal-t candidates survive for the tie break.
+inline bool slab(const gpu::BvhNode& n, const RayBox& rb, float tlimit, float& tnear) {
+  const glm::vec3 ta = (n.lo - rb.o) * rb.inv;
+  const glm::vec3 tb = (n.hi - rb.o) * rb.inv;
+  const glm::vec3 tmin = glm::min(ta, tb), tmax = glm::max(ta, tb);
+  const float t0 = std::max(tmin.x, std::max(tmin.y, tmin.z));
+  const float t1 = std::min(tmax.x, std::min(tmax.y, tmax.z)) * SLAB_FAR_SCALE;
+  tnear = t0;
+  return t0 <= t1 && t0 <= tlimit && t1 > 0.0f;
+}
+
+constexpr int STACK_SIZE = 64;
+
+/// State of a closest-hit traversal: the best hit so far.
+struct ClosestState {
+  float tmax;  // the ray's tMax: hits must have t < tmax
+  float best_t;
+  std::uint32_t best_ref = gpu::INVALID_INDEX;
+  float b1 = 0, b2 = 0;
+};
+
+/// Closest-hit traversal of the subtree at root (whose box is already known to be hit):
+/// stack based, nearer child first; recursion only when the fixed stack would overflow.
+void closest_from(const SceneTables& s, const Ray& ray, const RayBox& rb, std::uint32_t root,
+                  ClosestState& st) {
+  struct Entry {
+    std::uint32_t node;
+    float t;
+  };
+  Entry stack[STACK_SIZE];
+  int sp = 0;
+  std::uint32_t node = root;
+  for (;;) {
+    const gpu::BvhNode& n = s.nodes[node];
+    bool descend = false;
+    if (n.b == 0) {
+      std::uint32_t c0 = n.a, c1 = n.a + 1;
+      float t0, t1;
+      const bool h0 = slab(s.nodes[c0], rb, st.best_t, t0);
+      const bool h1 = slab(s.nodes[c1], rb, st.best_t, t1);
+      if (h0 && h1) {
+        if (t1 < t0) {
+          std::swap(c0, c1);
+          std::swap(t0, t1);
+        }
+        if (sp < STACK_SIZE) {
+          stack[sp++] = Entry{c1, t1};
+        } else {
+          closest_from(s, ray, rb, c1, st);
+        }
+        node = c0;
+        descend = true;
+      } else if (h0 || h1) {
+        node = h0 ? c0 : c1;
+        descend = true;
+      }
+    } else {
+      for (std::uint32_t i = n.a; i < n.a + n.b; ++i) {
+        const std::uint32_t ref = s.prim_refs[i];
+        const PrimHit h = prim_hit(s, ref, rb);
+        // Spec section 3: smallest t, then the smaller primitive reference.
+        if (h.t > 0.0f && h.t < st.tmax &&
+            (h.t < st.best_t || (h.t == st.best_t && ref < st.best_ref))) {
+          st.best_t = h.t;
+          st.best_ref = ref;
+          st.b1 = h.b1;
+          st.b2 = h.b2;
+        }
+      }
+    }
+    if (descend) continue;
+    // Pop the next subtree whose entry distance can still hold the closest hit.
+    for (;;) {
+      if (sp == 0) return;
+      const Entry e = stack[--sp];
+      if (e.t <= st.best_t) {
+        node = e.node;
+        break;
+      }
+    }
+  }
+}
+
+/// Any-hit traversal of the subtree at root: true at the first hit with 0 < t < tmax.
+bool any_from(const SceneTables& s, const Ray& ray, const RayBox& rb, std::uint32_t root) {
+  std::uint32_t stack[STACK_SIZE];
+  int sp = 0;
+  std::uint32_t node = root;
+  for (;;) {
+    const gpu::BvhNode& n = s.nodes[node];
+    bool descend = false;
+    if (n.b == 0) {
+      const std::uint32_t c0 = n.a, c1 = n.a + 1;
+      float t0, t1;
+      const bool h0 = slab(s.nodes[c0], rb, ray.tmax, t0);
+      const bool h1 = slab(s.nodes[c1], rb, ray.tmax, t1);
+      if (h0 && h1) {
+        if (sp < STACK_SIZE) {
+          stack[sp++] = c1;
+        } else if (any_from(s, ray, rb, c1)) {
+          return true;
+        }
+        node = c0;
+        descend = true;
+      } else if (h0 || h1) {
+        node = h0 ? c0 : c1;
+        descend = true;
+      }
+    } else {
+      for (std::uint32_t i = n.a; i < n.a + n.b; ++i) {
+        const PrimHit h = prim_hit(s, s.prim_refs[i], rb);
+        if (h.t > 0.0f && h.t < ray.tmax) return true;
+      }
+    }
+    if (descend) continue;
+    if (sp == 0) return false;
+    node = stack[--sp];
+  }
+}
+
+}  // namespace
+
+PrimHit intersect_triangle(glm::vec3 o, glm::vec3 d, float tmax, glm::vec3 p0, glm::vec3 p1,
+                           glm::vec3 p2) {
+  PrimHit h = triangle_hit(RayTri(o, d), p0, p1, p2);
+  if (!(h.t < tmax)) return PrimHit{};
+  return h;
+}
+
+PrimHit intersect_sphere(glm::vec3 o, glm::vec3 d, float tmax, glm::vec3 center, float radius) {
+  PrimHit h = sphere_hit(o, d, center, radius);
+  if (!(h.t < tmax)) return PrimHit{};
+  return h;
+}
+
+PrimHit intersect_prim(const SceneTables& scene, std::uint32_t ref, glm::vec3 o, glm::vec3 d,
+                       float tmax) {
+  PrimHit h = prim_hit(scene, ref, RayBox(Ray{o, d, tmax}));
+  if (!(h.t > 0.0f && h.t < tmax)) return PrimHit{};
+  return h;
+}
+
+Hit intersect_closest(const SceneTables& scene, const Ray& ray) {
+  Hit hit;
+  if (scene.nodes.empty()) return hit;
+  const RayBox rb(ray);
+  float tnear;
+  if (!slab(scene.nodes[0], rb, ray.tmax, tnear)) return hit;
+  ClosestState st{ray.tmax, ray.tmax};
+  closest_from(scene, ray, rb, 0, st);
+  if (st.best_ref == gpu::INVALID_INDEX) return hit;
+  hit.t = st.best_t;
+  hit.prim = st.best_ref;
+  hit.b1 = st.b1;
+  hit.b2 = st.b2;
+  return hit;
+}
+
+bool intersect_any(const SceneTables& scene, const Ray& ray) {
+  if (scene.nodes.empty()) return false;
+  const RayBox rb(ray);
+  float tnear;
+  if (!slab(scene.nodes[0], rb, ray.tmax, tnear)) return false;
+  return any_from(scene, ray, rb, 0);
+}
+
+}  // namespace basalt::cpu

@@ -1,0 +1,50 @@
+// Light selection, sampling and pdfs of the CPU reference (docs/path-spec.md section 6).
+#pragma once
+#include <cstdint>
+
+#include <glm/glm.hpp>
+
+#include "cpu/intersect.h"
+#include "scene/tables.h"
+
+namespace basalt::cpu {
+
+/// A sampled light: incident radiance at the shading point and how to test visibility.
+struct LightSample {
+  glm::vec3 Li{0.0f};     // radiance arriving at p from the light sample (Le / d^2 for I)
+  glm::vec3 wi{0.0f};     // unit direction from p towards the light
+  float pdf = 0.0f;       // solid-angle pdf (1 for delta lights); 0 means no sample
+  bool delta = false;     // point, spot, distant
+  bool at_infinity = false;  // distant, infinite: the shadow ray has tMax = FLT_MAX
+  bool area = false;      // area light: the shadow ray target is offset off the light
+  glm::vec3 q{0.0f};      // point on the light (point, spot, area)
+  glm::vec3 nl{0.0f};     // light surface normal at q (area)
+};
+
+/// \brief Number of lights usable by the light sampler (Globals.counts.x, bounded by the tables).
+std::uint32_t light_count(const SceneTables& scene);
+
+/// \brief Light index for u in [0,1): largest i with light_cdf[i] <= u (spec section 6 binary
+///        search); INVALID_INDEX without lights.
+std::uint32_t select_light(const SceneTables& scene, float u);
+
+/// \brief Samples light at shading point p (geometric normal ng, or 0 for a point in space)
+///        with u = (u0, u1) (spec section 6; ng only decides a sphere light's inside test).
+LightSample sample_light(const SceneTables& scene, const gpu::Light& light, glm::vec3 p,
+                         glm::vec3 ng, glm::vec2 u);
+
+/// \brief Solid-angle pdf with which sample_light(area light, p_ref) produces the point q
+///        (normal nq) reached from p_ref (geometric normal ng_ref) along the unit direction w
+///        (pbrt-v4 Triangle/Sphere::PDF).
+float area_light_pdf(const SceneTables& scene, const gpu::Light& light, glm::vec3 p_ref,
+                     glm::vec3 ng_ref, glm::vec3 q, glm::vec3 nq, glm::vec3 w);
+
+/// \brief Emitted radiance of an area light at a point with emitting-side normal nl towards
+///        direction w (w points to the receiver; spec section 6 "Area emission").
+glm::vec3 area_Le(const gpu::Light& light, glm::vec3 nl, glm::vec3 w);
+
+/// \brief Shadow ray from shading point p (geometric normal ng) to the light sample
+///        (spec section 5).
+Ray shadow_ray(glm::vec3 p, glm::vec3 ng, const LightSample& ls);
+
+}  // namespace basalt::cpu

@@ -1,0 +1,58 @@
+// CPU twin of shaders/tests/probe.comp: answers probe queries (layout.h PROBE_*).
+#include "cpu/probe.h"
+
+#include <bit>
+#include <cfloat>
+
+#include "cpu/camera.h"
+#include "cpu/intersect.h"
+#include "cpu/rng.h"
+#include "cpu/surface.h"
+
+namespace basalt::cpu {
+
+std::vector<gpu::ProbeOut> probe(const SceneTables& scene, const std::vector<gpu::ProbeIn>& in) {
+  std::vector<gpu::ProbeOut> out(in.size());
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    const gpu::ProbeIn& q = in[i];
+    gpu::ProbeOut& o = out[i];
+    o = gpu::ProbeOut{glm::vec4(0.0f), glm::vec4(0.0f), glm::uvec4(0u)};
+    const Ray ray{glm::vec3(q.o_tmax), glm::vec3(q.d), q.o_tmax.w};
+    switch (q.key.x) {
+      case gpu::PROBE_CLOSEST:
+      case gpu::PROBE_RESPAWN: {
+        const Hit h = intersect_closest(scene, ray);
+        o.f0 = glm::vec4(h.t, h.b1, h.b2, 0.0f);
+        o.u.x = h.prim;
+        if (q.key.x == gpu::PROBE_CLOSEST) break;
+        Hit h2;
+        if (h.valid()) {
+          // Continuation from the first hit's surface point (spec sections 4 and 5).
+          const SurfacePoint sp = surface_point(scene, ray, h);
+          h2 = intersect_closest(scene, spawn_ray(sp.g.p, sp.g.ng, glm::vec3(q.extra)));
+        }
+        o.f1 = glm::vec4(h2.t, h2.b1, h2.b2, 0.0f);
+        o.u.y = h2.prim;
+        break;
+      }
+      case gpu::PROBE_OCCLUDED:
+        o.u.x = intersect_any(scene, ray) ? 1u : 0u;
+        break;
+      case gpu::PROBE_RNG:
+        o.f0.x = rng(q.key.y, q.key.z, q.key.w, std::bit_cast<std::uint32_t>(q.extra.x),
+                     scene.globals.image.w);
+        break;
+      case gpu::PROBE_CAMERA: {
+        const Ray c = camera_ray(scene, q.key.y, q.key.z, q.key.w);
+        o.f0 = glm::vec4(c.o, 0.0f);
+        o.f1 = glm::vec4(c.d, 0.0f);
+        break;
+      }
+      default:
+        break;
+    }
+  }
+  return out;
+}
+
+}  // namespace basalt::cpu

@@ -1,0 +1,876 @@
+// pbrt-v4 scene parser: directives, graphics state and the typed Scene (pbrt-v4 parser.cpp
+// parse() and scene.cpp BasicSceneBuilder, re-implemented; see docs/scene-format.md).
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <glm/gtc/type_ptr.hpp>
+#include <map>
+#include <sstream>
+
+#include "scene/paramset.h"
+#include "scene/ply.h"
+#include "scene/scene.h"
+#include "scene/tokenizer.h"
+
+namespace basalt {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kMaxIncludeDepth = 64;
+
+// The attributes AttributeBegin saves and AttributeEnd restores (pbrt-v4 GraphicsState).
+struct GraphicsState {
+  glm::mat4 ctm{1.0f};
+  int material = -1;           // index into Scene::materials; -1: default or pending named
+  std::string named_material;  // NamedMaterial not yet defined when it was set
+  SourceLoc named_material_loc;
+  std::optional<AreaLight> area_light;
+  bool reverse_orientation = false;
+};
+
+// A shape whose NamedMaterial is resolved at the end (pbrt-v4 resolves names after parsing).
+struct PendingMaterial {
+  std::size_t shape;
+  std::string name;
+  SourceLoc loc;
+};
+
+// pbrt-v4 normalizeArg: option names ignore case, '-' and '_'.
+std::string normalize_option(const std::string& s) {
+  std::string out;
+  for (char c : s)
+    if (c != '_' && c != '-') out += char(std::tolower((unsigned char)c));
+  return out;
+}
+
+// Applies m to a point with the homogeneous divide (pbrt-v4 Transform::operator()(Point3f)).
+glm::vec3 xform_point(const glm::mat4& m, glm::vec3 p) {
+  glm::vec4 r = m * glm::vec4(p, 1.0f);
+  return r.w == 1.0f ? glm::vec3(r) : glm::vec3(r) / r.w;
+}
+
+// Applies the linear part of m to a direction.
+glm::vec3 xform_vector(const glm::mat4& m, glm::vec3 v) { return glm::mat3(m) * v; }
+
+// Reads a whole scene file; failures are errors at where, naming the file and the reason.
+std::string read_scene_file(const std::string& path, const SourceLoc& where, const char* kind) {
+  if (path.size() > 3 && path.compare(path.size() - 3, 3, ".gz") == 0)
+    throw SceneError(
+        where, std::string("gzip-compressed scene files are not supported yet: \"") + path + "\"");
+  std::error_code ec;
+  if (fs::is_directory(path, ec))
+    throw SceneError(where,
+                     std::string("cannot read ") + kind + " \"" + path + "\": is a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw SceneError(
+        where, std::string("cannot open ") + kind + " \"" + path + "\": " + std::strerror(errno));
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) throw SceneError(where, std::string("cannot read ") + kind + " \"" + path + "\"");
+  return ss.str();
+}
+
+class Parser {
+ public:
+  explicit Parser(std::string main_dir) : main_dir_(std::move(main_dir)) {}
+
+  // Parses the text of one file; dir resolves its relative paths.
+  void parse(Tokenizer& tok, const std::string& dir);
+  // Reads and parses an included file; from is the Include/Import location.
+  void parse_file(const std::string& path, const SourceLoc* from);
+  // Checks what can only be checked at the end and hands over the scene.
+  Scene finish(const SourceLoc& eof);
+
+ private:
+  // ---- helpers ----
+  std::string resolve(const std::string& name, const std::string& dir) const;
+  double number_arg(Tokenizer& tok, const Token& d, int count);
+  std::string string_arg(Tokenizer& tok, const Token& d, const char* what);
+  void matrix_arg(Tokenizer& tok, const Token& d, float m[16]);
+  ParamSet params(Tokenizer& tok);
+  void verify_options(const Token& d);
+  void verify_world(const Token& d);
+  void warn(const SourceLoc& loc, const std::string& msg);
+  int default_material();
+  glm::mat4 invert(const glm::mat4& m, const SourceLoc& loc, const char* what);
+
+  // ---- directives ----
+  void directive(Tokenizer& tok, const Token& d, const std::string& dir);
+  void camera(Tokenizer& tok, const Token& d);
+  void film(Tokenizer& tok, const Token& d);
+  void sampler(Tokenizer& tok, const Token& d);
+  void pixel_filter(Tokenizer& tok, const Token& d);
+  void integrator(Tokenizer& tok, const Token& d);
+  void option(Tokenizer& tok, const Token& d);
+  void shape(Tokenizer& tok, const Token& d, const std::string& dir);
+  void light_source(Tokenizer& tok, const Token& d);
+  void area_light_source(Tokenizer& tok, const Token& d);
+  Material make_material(const std::string& type, const ParamSet& ps, const SourceLoc& loc,
+                         const SourceLoc& type_loc, const std::string& what);
+  void attribute_begin(const Token& d);
+  void attribute_end(const Token& d);
+
+  Scene scene_;
+  std::string main_dir_;
+  bool world_ = false;
+  GraphicsState gs_;
+  std::vector<std::pair<GraphicsState, SourceLoc>> stack_;  // with the AttributeBegin location
+  std::map<std::string, glm::mat4> coord_systems_;
+  std::map<std::string, int> named_materials_;
+  std::vector<PendingMaterial> pending_;
+  int default_material_ = -1;
+  int include_depth_ = 0;
+  bool warned_transform_begin_ = false;
+  bool sampler_seed_given_ = false;
+  int option_seed_ = 0;
+  std::optional<float> frame_aspect_;
+  SourceLoc frame_aspect_loc_;
+};
+
+// Records a warning at loc in Scene::warnings.
+void Parser::warn(const SourceLoc& loc, const std::string& msg) {
+  scene_.warnings.push_back(format_warning(loc, msg));
+}
+
+// Resolves a relative path against the referencing file's directory; if nothing is there, tries
+// the top-level file's directory (pbrt-v4's single search directory, SetSearchDirectory).
+std::string Parser::resolve(const std::string& name, const std::string& dir) const {
+  fs::path p(name);
+  if (p.is_absolute()) return name;
+  fs::path a = (fs::path(dir) / p).lexically_normal();
+  std::error_code ec;
+  if (fs::exists(a, ec)) return a.string();
+  fs::path b = (fs::path(main_dir_) / p).lexically_normal();
+  if (b != a && fs::exists(b, ec)) return b.string();
+  return a.string();
+}
+
+// Reads the next token as one of count numbers that directive d takes.
+double Parser::number_arg(Tokenizer& tok, const Token& d, int count) {
+  std::optional<Token> t = tok.next();
+  if (!t || t->kind != Token::Kind::Number)
+    throw SceneError(t ? t->loc : d.loc, d.text + " expects " + std::to_string(count) +
+                                             " numbers, got " +
+                                             (t ? t->describe() : std::string("end of file")));
+  return t->number;
+}
+
+// Reads the next token as a quoted string argument of directive d.
+std::string Parser::string_arg(Tokenizer& tok, const Token& d, const char* what) {
+  std::optional<Token> t = tok.next();
+  if (!t || t->kind != Token::Kind::String)
+    throw SceneError(t ? t->loc : d.loc, d.text + " expects " + what + " in quotes, got " +
+                                             (t ? t->describe() : std::string("end of file")));
+  return t->text;
+}
+
+// Reads the 16 numbers of Transform/ConcatTransform, in brackets (brackets optional).
+void Parser::matrix_arg(Tokenizer& tok, const Token& d, float m[16]) {
+  const std::optional<Token>& open = tok.peek();
+  bool bracket = open && open->kind == Token::Kind::LBracket;
+  if (bracket) tok.next();
+  for (int i = 0; i < 16; ++i) m[i] = float(number_arg(tok, d, 16));
+  if (bracket) {
+    std::optional<Token> close = tok.next();
+    if (!close || close->kind != Token::Kind::RBracket)
+      throw SceneError(close ? close->loc : d.loc, d.text + " expects ']' after 16 numbers");
+  }
+}
+
+// Reads a parameter list; texture references are refused until textures exist.
+ParamSet Parser::params(Tokenizer& tok) {
+  ParamSet ps = parse_param_list(tok);
+  for (const Param& p : ps.params)
+    if (p.type == "texture")
+      throw SceneError(p.loc, "textures are not supported yet (parameter \"" + p.name +
+                                  "\" refers to texture \"" + p.strings[0] + "\")");
+  return ps;
+}
+
+// pbrt-v4 VERIFY_OPTIONS: rendering options come before WorldBegin.
+void Parser::verify_options(const Token& d) {
+  if (world_) throw SceneError(d.loc, "'" + d.text + "' is not allowed after WorldBegin");
+}
+
+// pbrt-v4 VERIFY_WORLD: scene content comes after WorldBegin.
+void Parser::verify_world(const Token& d) {
+  if (!world_) throw SceneError(d.loc, "'" + d.text + "' is only allowed after WorldBegin");
+}
+
+// The index of pbrt-v4's default material, diffuse with reflectance 0.5, created on first use.
+int Parser::default_material() {
+  if (default_material_ < 0) {
+    Material m;
+    m.type = "diffuse";
+    m.params["reflectance"] = MaterialParam{{0.5f, 0.5f, 0.5f}, "", SourceLoc{}};
+    default_material_ = int(scene_.materials.size());
+    scene_.materials.push_back(std::move(m));
+  }
+  return default_material_;
+}
+
+// Inverts m in double precision; a singular matrix is an error at loc.
+glm::mat4 Parser::invert(const glm::mat4& m, const SourceLoc& loc, const char* what) {
+  glm::dmat4 dm(m);
+  double det = glm::determinant(dm);
+  if (!(std::abs(det) > 1e-30) || !std::isfinite(det))
+    throw SceneError(loc, std::string(what) + " is not invertible");
+  return glm::mat4(glm::inverse(dm));
+}
+
+// Include/Import: parses another file in the current state (depth-limited against cycles).
+void Parser::parse_file(const std::string& path, const SourceLoc* from) {
+  if (++include_depth_ > kMaxIncludeDepth)
+    throw SceneError(*from, "Include nesting deeper than " + std::to_string(kMaxIncludeDepth) +
+                                " (recursive Include?)");
+  Tokenizer tok(read_scene_file(path, *from, "included file"), path);
+  parse(tok, fs::path(path).parent_path().string());
+  --include_depth_;
+}
+
+// Runs directives until the end of the text.
+void Parser::parse(Tokenizer& tok, const std::string& dir) {
+  while (std::optional<Token> t = tok.next()) {
+    if (t->kind != Token::Kind::Word)
+      throw SceneError(t->loc, "expected a directive, got " + t->describe());
+    directive(tok, *t, dir);
+  }
+}
+
+// Dispatches one directive (pbrt-v4 parser.cpp parse(), same names and arguments).
+void Parser::directive(Tokenizer& tok, const Token& d, const std::string& dir) {
+  const std::string& n = d.text;
+  // Transformations are allowed anywhere (pbrt-v4 file format, "Transformations").
+  if (n == "Identity") {
+    gs_.ctm = glm::mat4(1.0f);
+  } else if (n == "Translate") {
+    glm::vec3 t;
+    for (int i = 0; i < 3; ++i) t[i] = float(number_arg(tok, d, 3));
+    glm::mat4 m(1.0f);
+    m[3] = glm::vec4(t, 1.0f);
+    gs_.ctm = gs_.ctm * m;
+  } else if (n == "Scale") {
+    glm::vec3 s;
+    for (int i = 0; i < 3; ++i) s[i] = float(number_arg(tok, d, 3));
+    gs_.ctm = gs_.ctm * glm::mat4(glm::vec4(s.x, 0, 0, 0), glm::vec4(0, s.y, 0, 0),
+                                  glm::vec4(0, 0, s.z, 0), glm::vec4(0, 0, 0, 1));
+  } else if (n == "Rotate") {
+    // pbrt-v4 Rotate (book 3.9.6): right-handed rotation by theta degrees about the
+    // normalized axis, R = cos I + sin [a]x + (1 - cos) a a^T.
+    float deg = float(number_arg(tok, d, 4));
+    glm::vec3 a;
+    for (int i = 0; i < 3; ++i) a[i] = float(number_arg(tok, d, 4));
+    if (glm::length(a) == 0.0f) throw SceneError(d.loc, "Rotate axis is the zero vector");
+    a = glm::normalize(a);
+    float th = glm::radians(deg), c = std::cos(th), s = std::sin(th);
+    glm::mat4 r(1.0f);  // r[col][row]
+    r[0][0] = a.x * a.x + (1 - a.x * a.x) * c;
+    r[1][0] = a.x * a.y * (1 - c) - a.z * s;
+    r[2][0] = a.x * a.z * (1 - c) + a.y * s;
+    r[0][1] = a.x * a.y * (1 - c) + a.z * s;
+    r[1][1] = a.y * a.y + (1 - a.y * a.y) * c;
+    r[2][1] = a.y * a.z * (1 - c) - a.x * s;
+    r[0][2] = a.x * a.z * (1 - c) - a.y * s;
+    r[1][2] = a.y * a.z * (1 - c) + a.x * s;
+    r[2][2] = a.z * a.z + (1 - a.z * a.z) * c;
+    gs_.ctm = gs_.ctm * r;
+  } else if (n == "LookAt") {
+    // pbrt-v4 LookAt (book 3.9.8): worldFromCamera has columns right, up', dir, eye with
+    // right = normalize(cross(normalize(up), dir)), up' = cross(dir, right); the CTM is
+    // post-multiplied by its inverse, cameraFromWorld.
+    float v[9];
+    for (float& x : v) x = float(number_arg(tok, d, 9));
+    glm::vec3 eye(v[0], v[1], v[2]), look(v[3], v[4], v[5]), up(v[6], v[7], v[8]);
+    if (eye == look) throw SceneError(d.loc, "LookAt eye and look-at points are the same");
+    if (glm::length(up) == 0.0f) throw SceneError(d.loc, "LookAt up vector is the zero vector");
+    glm::vec3 dir3 = glm::normalize(look - eye);
+    glm::vec3 right = glm::cross(glm::normalize(up), dir3);
+    if (glm::length(right) == 0.0f)
+      throw SceneError(d.loc, "LookAt up vector and viewing direction are parallel");
+    right = glm::normalize(right);
+    glm::vec3 new_up = glm::cross(dir3, right);
+    glm::mat4 world_from_camera(glm::vec4(right, 0), glm::vec4(new_up, 0), glm::vec4(dir3, 0),
+                                glm::vec4(eye, 1));
+    gs_.ctm = gs_.ctm * invert(world_from_camera, d.loc, "the LookAt matrix");
+  } else if (n == "Transform" || n == "ConcatTransform") {
+    // pbrt-v4 BasicSceneBuilder::Transform: Transpose(Transform(m)) of the row-major 16
+    // numbers, i.e. the numbers are the matrix in column-major order, as glm stores it.
+    float m[16];
+    matrix_arg(tok, d, m);
+    glm::mat4 t = glm::make_mat4(m);
+    gs_.ctm = n == "Transform" ? t : gs_.ctm * t;
+  } else if (n == "CoordinateSystem") {
+    coord_systems_[string_arg(tok, d, "a name")] = gs_.ctm;
+  } else if (n == "CoordSysTransform") {
+    std::string name = string_arg(tok, d, "a name");
+    auto it = coord_systems_.find(name);
+    if (it != coord_systems_.end())
+      gs_.ctm = it->second;
+    else  // pbrt-v4 warns and keeps the CTM
+      warn(d.loc, "unknown coordinate system \"" + name + "\"; CoordSysTransform ignored");
+  } else if (n == "ActiveTransform") {
+    std::optional<Token> a = tok.next();
+    if (!a || a->kind != Token::Kind::Word ||
+        (a->text != "All" && a->text != "StartTime" && a->text != "EndTime"))
+      throw SceneError(a ? a->loc : d.loc, "ActiveTransform expects All, StartTime or EndTime");
+    if (a->text != "All")
+      throw SceneError(d.loc, "motion blur is not supported yet (ActiveTransform " + a->text + ")");
+  } else if (n == "TransformTimes") {
+    verify_options(d);
+    number_arg(tok, d, 2);
+    number_arg(tok, d, 2);
+    warn(d.loc, "TransformTimes ignored: basalt has no motion blur");
+  } else if (n == "Include" || n == "Import") {  // files
+    // Import is Include whose graphics-state changes stay inside the file (pbrt-v4
+    // CopyForImport); basalt parses it in place.
+    std::string name = string_arg(tok, d, "a file name");
+    std::string path = resolve(name, dir);
+    if (n == "Import") {
+      if (!world_) throw SceneError(d.loc, "'Import' is only allowed after WorldBegin");
+      GraphicsState saved = gs_;
+      std::size_t depth = stack_.size();
+      parse_file(path, &d.loc);
+      if (stack_.size() > depth)
+        throw SceneError(stack_.back().second, "AttributeBegin without a matching AttributeEnd");
+      gs_ = saved;
+    } else {
+      parse_file(path, &d.loc);
+    }
+  } else if (n == "Camera") {  // rendering options
+    camera(tok, d);
+  } else if (n == "Film") {
+    film(tok, d);
+  } else if (n == "Sampler") {
+    sampler(tok, d);
+  } else if (n == "PixelFilter") {
+    pixel_filter(tok, d);
+  } else if (n == "Integrator") {
+    integrator(tok, d);
+  } else if (n == "Accelerator") {
+    verify_options(d);
+    std::string type = string_arg(tok, d, "a type");
+    params(tok);
+    warn(d.loc, "Accelerator \"" + type + "\" ignored: basalt builds its own BVH");
+  } else if (n == "ColorSpace") {
+    std::string cs = string_arg(tok, d, "a color space name");
+    if (cs != "srgb")
+      throw SceneError(
+          d.loc, "color space '" + cs + "' is not supported yet (basalt renders in linear sRGB)");
+  } else if (n == "Option") {
+    option(tok, d);
+  } else if (n == "WorldBegin") {
+    verify_options(d);
+    world_ = true;
+    gs_.ctm = glm::mat4(1.0f);
+    coord_systems_["world"] = gs_.ctm;
+  } else if (n == "WorldEnd") {
+    warn(d.loc, "WorldEnd is a pbrt-v3 directive; ignored");
+  } else if (n == "AttributeBegin" || n == "TransformBegin") {  // attributes
+    if (n == "TransformBegin" && !warned_transform_begin_) {
+      // pbrt-v4 parser.cpp: deprecated, and handled as AttributeBegin.
+      warn(d.loc, "TransformBegin/TransformEnd are deprecated; treated as AttributeBegin/End");
+      warned_transform_begin_ = true;
+    }
+    attribute_begin(d);
+  } else if (n == "AttributeEnd" || n == "TransformEnd") {
+    attribute_end(d);
+  } else if (n == "ReverseOrientation") {
+    verify_world(d);
+    gs_.reverse_orientation = !gs_.reverse_orientation;
+  } else if (n == "Attribute") {
+    throw SceneError(d.loc, "the Attribute directive is not supported yet");
+  } else if (n == "Shape") {  // scene content
+    shape(tok, d, dir);
+  } else if (n == "LightSource") {
+    light_source(tok, d);
+  } else if (n == "AreaLightSource") {
+    area_light_source(tok, d);
+  } else if (n == "Material") {
+    verify_world(d);
+    std::string type = string_arg(tok, d, "a material type");
+    ParamSet ps = params(tok);
+    Material m = make_material(type, ps, d.loc, d.loc, "Material '" + type + "'");
+    gs_.material = int(scene_.materials.size());
+    gs_.named_material.clear();
+    scene_.materials.push_back(std::move(m));
+  } else if (n == "MakeNamedMaterial") {
+    verify_world(d);
+    std::string name = string_arg(tok, d, "a material name");
+    ParamSet ps = params(tok);
+    if (named_materials_.count(name))
+      throw SceneError(d.loc, "named material \"" + name + "\" redefined");
+    const Param* tp = ps.find("type");
+    if (!tp)
+      throw SceneError(d.loc,
+                       "MakeNamedMaterial \"" + name + "\" needs a \"string type\" parameter");
+    std::string type = ps.get_string("type", "");
+    Material m = make_material(type, ps, d.loc, tp->loc, "MakeNamedMaterial \"" + name + "\"");
+    m.name = name;
+    named_materials_[name] = int(scene_.materials.size());
+    scene_.materials.push_back(std::move(m));
+  } else if (n == "NamedMaterial") {
+    verify_world(d);
+    std::string name = string_arg(tok, d, "a material name");
+    auto it = named_materials_.find(name);
+    if (it != named_materials_.end()) {
+      gs_.material = it->second;
+      gs_.named_material.clear();
+    } else {  // may be defined later in the file (pbrt-v4 resolves names after parsing)
+      gs_.material = -1;
+      gs_.named_material = name;
+      gs_.named_material_loc = d.loc;
+    }
+  } else if (n == "Texture") {
+    throw SceneError(d.loc, "textures are not supported yet");
+  } else if (n == "MakeNamedMedium" || n == "MediumInterface") {
+    if (n == "MediumInterface") {
+      // MediumInterface "" "" (no media), as exporters write it, is harmless.
+      std::string inside = string_arg(tok, d, "a medium name");
+      std::string outside = inside;
+      const std::optional<Token>& p = tok.peek();
+      if (p && p->kind == Token::Kind::String) outside = tok.next()->text;
+      if (inside.empty() && outside.empty()) return;
+    }
+    throw SceneError(d.loc, "participating media are not supported yet");
+  } else if (n == "ObjectBegin" || n == "ObjectEnd" || n == "ObjectInstance") {
+    throw SceneError(d.loc, "object instancing is not supported yet (" + n + ")");
+  } else {
+    throw SceneError(d.loc, "unknown directive '" + n + "'");
+  }
+}
+
+// AttributeBegin (and deprecated TransformBegin): saves the whole graphics state.
+void Parser::attribute_begin(const Token& d) {
+  verify_world(d);
+  stack_.emplace_back(gs_, d.loc);
+}
+
+// AttributeEnd (and TransformEnd): restores the state of the matching AttributeBegin.
+void Parser::attribute_end(const Token& d) {
+  verify_world(d);
+  if (stack_.empty())
+    throw SceneError(d.loc, d.text + " without a matching " +
+                                (d.text == "TransformEnd" ? "TransformBegin" : "AttributeBegin"));
+  gs_ = std::move(stack_.back().first);
+  stack_.pop_back();
+}
+
+// Camera "perspective" (pbrt-v4 PerspectiveCamera::Create, book 5.2).
+void Parser::camera(Tokenizer& tok, const Token& d) {
+  verify_options(d);
+  std::string type = string_arg(tok, d, "a camera type");
+  ParamSet ps = params(tok);
+  if (type != "perspective")
+    throw SceneError(
+        d.loc, "camera '" + type + "' is not supported yet (basalt has the perspective camera)");
+  Camera c;
+  c.loc = d.loc;
+  // pbrt-v4 BasicSceneBuilder::Camera: cameraFromWorld is the CTM.
+  c.world_from_camera = invert(gs_.ctm, d.loc, "the camera transform (CTM at Camera)");
+  coord_systems_["camera"] = c.world_from_camera;
+  c.fov_deg = ps.get_float("fov", 90.0f);
+  if (!(c.fov_deg > 0.0f && c.fov_deg < 180.0f))
+    throw SceneError(ps.loc_of("fov", d.loc), "fov must be in (0, 180) degrees");
+  c.lens_radius = ps.get_float("lensradius", 0.0f);
+  if (c.lens_radius < 0.0f)
+    throw SceneError(ps.loc_of("lensradius", d.loc), "lensradius must not be negative");
+  c.focal_distance = ps.get_float("focaldistance", 1e6f);
+  if (!(c.focal_distance > 0.0f))
+    throw SceneError(ps.loc_of("focaldistance", d.loc), "focaldistance must be positive");
+  std::vector<float> sw = ps.get_floats("screenwindow");
+  if (!sw.empty()) {
+    if (sw.size() != 4)
+      throw SceneError(ps.loc_of("screenwindow", d.loc), "screenwindow needs four values");
+    c.screen_window = glm::vec4(sw[0], sw[1], sw[2], sw[3]);
+  }
+  frame_aspect_.reset();
+  if (ps.find("frameaspectratio")) {
+    frame_aspect_loc_ = ps.loc_of("frameaspectratio", d.loc);
+    frame_aspect_ = ps.get_float("frameaspectratio", 1.0f);
+    if (!(*frame_aspect_ > 0.0f))
+      throw SceneError(frame_aspect_loc_, "frameaspectratio must be positive");
+  }
+  ps.report_unused("Camera 'perspective'", scene_.warnings);
+  scene_.camera = c;
+}
+
+// Film "rgb" (pbrt-v4 RGBFilm / FilmBaseParameters).
+void Parser::film(Tokenizer& tok, const Token& d) {
+  verify_options(d);
+  std::string type = string_arg(tok, d, "a film type");
+  ParamSet ps = params(tok);
+  if (type == "gbuffer" || type == "spectral")
+    warn(d.loc, "Film '" + type + "' is rendered as Film 'rgb'");
+  else if (type != "rgb")
+    throw SceneError(d.loc, "film '" + type + "' is not supported (basalt writes Film 'rgb')");
+  Film f;
+  f.loc = d.loc;
+  f.xres = ps.get_int("xresolution", 1280);
+  if (f.xres <= 0)
+    throw SceneError(ps.loc_of("xresolution", d.loc),
+                     "xresolution must be positive, got " + std::to_string(f.xres));
+  f.yres = ps.get_int("yresolution", 720);
+  if (f.yres <= 0)
+    throw SceneError(ps.loc_of("yresolution", d.loc),
+                     "yresolution must be positive, got " + std::to_string(f.yres));
+  f.filename = ps.get_string("filename", "pbrt.exr");
+  ps.report_unused("Film '" + type + "'", scene_.warnings);
+  scene_.film = f;
+}
+
+// Sampler: only the sample count and seed carry over; basalt samples with its own
+// counter-based generator (docs/path-spec.md section 1).
+void Parser::sampler(Tokenizer& tok, const Token& d) {
+  verify_options(d);
+  std::string type = string_arg(tok, d, "a sampler type");
+  ParamSet ps = params(tok);
+  Sampler s;
+  if (type == "stratified") {
+    // pbrt-v4 StratifiedSampler::Create: xsamples x ysamples per pixel, 4 x 4 by default.
+    int xs = ps.get_int("xsamples", 4), ys = ps.get_int("ysamples", 4);
+    if (xs <= 0 || ys <= 0)
+      throw SceneError(ps.loc_of(xs <= 0 ? "xsamples" : "ysamples", d.loc),
+                       "xsamples and ysamples must be positive");
+    s.spp = xs * ys;
+  } else {
+    s.spp = ps.get_int("pixelsamples", 16);
+    if (s.spp <= 0)
+      throw SceneError(ps.loc_of("pixelsamples", d.loc),
+                       "pixelsamples must be positive, got " + std::to_string(s.spp));
+  }
+  sampler_seed_given_ = ps.find("seed") != nullptr;
+  s.seed = ps.get_int("seed", 0);
+  if (type != "independent" && type != "zsobol")
+    warn(d.loc, "Sampler '" + type +
+                    "': basalt uses its own counter-based sampler; only the sample count and "
+                    "seed are used");
+  ps.report_unused("Sampler '" + type + "'", scene_.warnings);
+  scene_.sampler = s;
+}
+
+// PixelFilter "box" / "gaussian" (pbrt-v4 BoxFilter::Create, GaussianFilter::Create).
+void Parser::pixel_filter(Tokenizer& tok, const Token& d) {
+  verify_options(d);
+  std::string type = string_arg(tok, d, "a filter type");
+  ParamSet ps = params(tok);
+  Filter f;
+  float def_radius;
+  if (type == "box") {
+    f.type = Filter::Type::Box;
+    def_radius = 0.5f;
+  } else if (type == "gaussian") {
+    f.type = Filter::Type::Gaussian;
+    def_radius = 1.5f;
+    f.sigma = ps.get_float("sigma", 0.5f);
+    if (!(f.sigma > 0.0f)) throw SceneError(ps.loc_of("sigma", d.loc), "sigma must be positive");
+  } else {
+    throw SceneError(d.loc, "filter '" + type + "' is not supported yet (box and gaussian are)");
+  }
+  f.radius = glm::vec2(ps.get_float("xradius", def_radius), ps.get_float("yradius", def_radius));
+  if (!(f.radius.x > 0.0f))
+    throw SceneError(ps.loc_of("xradius", d.loc), "xradius must be positive");
+  if (!(f.radius.y > 0.0f))
+    throw SceneError(ps.loc_of("yradius", d.loc), "yradius must be positive");
+  ps.report_unused("PixelFilter '" + type + "'", scene_.warnings);
+  scene_.filter = f;
+}
+
+// Integrator "path" (pbrt-v4 PathIntegrator::Create); "volpath" is the same without media.
+void Parser::integrator(Tokenizer& tok, const Token& d) {
+  verify_options(d);
+  std::string type = string_arg(tok, d, "an integrator type");
+  ParamSet ps = params(tok);
+  if (type == "volpath")
+    warn(d.loc, "Integrator 'volpath' is rendered as 'path' (basalt has no participating media)");
+  else if (type != "path")
+    throw SceneError(d.loc, "integrator '" + type +
+                                "' is not supported (basalt renders with Integrator 'path')");
+  Integrator in;
+  in.max_depth = ps.get_int("maxdepth", 5);
+  if (in.max_depth < 0)
+    throw SceneError(ps.loc_of("maxdepth", d.loc), "maxdepth must not be negative");
+  in.regularize = ps.get_bool("regularize", false);
+  ps.report_unused("Integrator '" + type + "'", scene_.warnings);
+  scene_.integrator = in;
+}
+
+// Option "name" value (pbrt-v4 BasicSceneBuilder::Option); only "seed" affects basalt.
+void Parser::option(Tokenizer& tok, const Token& d) {
+  std::string decl = string_arg(tok, d, "an option name");
+  std::optional<Token> v = tok.next();
+  if (!v || (v->kind != Token::Kind::Number && v->kind != Token::Kind::String &&
+             v->kind != Token::Kind::Word))
+    throw SceneError(v ? v->loc : d.loc, "Option \"" + decl + "\" has no value");
+  // Accept both "name" and "type name".
+  std::string name =
+      decl.substr(decl.find_last_of(" \t") == std::string::npos ? 0 : decl.find_last_of(" \t") + 1);
+  std::string nn = normalize_option(name);
+  static const char* known[] = {"disablepixeljitter",
+                                "disabletexturefiltering",
+                                "disablewavelengthjitter",
+                                "displacementedgescale",
+                                "msereferenceimage",
+                                "msereferenceout",
+                                "forcediffuse",
+                                "pixelstats",
+                                "wavefront"};
+  if (nn == "seed") {
+    if (!v->is_integer_literal())
+      throw SceneError(v->loc, "Option \"seed\" expects an integer, got " + v->describe());
+    option_seed_ = int(v->number);
+  } else if (std::find(std::begin(known), std::end(known), nn) != std::end(known)) {
+    warn(d.loc, "Option \"" + name + "\" has no effect in basalt");
+  } else {
+    warn(d.loc, "unknown Option \"" + name + "\" ignored");
+  }
+}
+
+// Shape "sphere" / "trianglemesh" / "plymesh" (pbrt-v4 Sphere::Create, TriangleMesh::Create,
+// and the plymesh case of Shape::Create).
+void Parser::shape(Tokenizer& tok, const Token& d, const std::string& dir) {
+  verify_world(d);
+  std::string type = string_arg(tok, d, "a shape type");
+  ParamSet ps = params(tok);
+  Shape s;
+  s.loc = d.loc;
+  s.world_from_object = gs_.ctm;
+  s.reverse_orientation = gs_.reverse_orientation;
+  s.area_light = gs_.area_light;
+  if (type == "sphere") {
+    s.kind = Shape::Kind::Sphere;
+    float r = ps.get_float("radius", 1.0f);
+    if (!(r > 0.0f)) throw SceneError(ps.loc_of("radius", d.loc), "sphere radius must be positive");
+    s.radius = r;
+    // pbrt-v4 Sphere: zmin/zmax are clamped to [-r, r] and phimax to [0, 360].
+    float zmin = ps.get_float("zmin", -r), zmax = ps.get_float("zmax", r);
+    float phimax = ps.get_float("phimax", 360.0f);
+    float z0 = std::clamp(std::min(zmin, zmax), -r, r),
+          z1 = std::clamp(std::max(zmin, zmax), -r, r);
+    const char* partial = z0 > -r  ? (zmin <= zmax ? "zmin" : "zmax")
+                          : z1 < r ? (zmin <= zmax ? "zmax" : "zmin")
+                          : std::clamp(phimax, 0.0f, 360.0f) < 360.0f ? "phimax"
+                                                                      : nullptr;
+    if (partial) throw SceneError(ps.loc_of(partial, d.loc), "partial spheres not supported");
+  } else if (type == "trianglemesh") {
+    s.kind = Shape::Kind::Triangles;
+    TriangleMesh& m = s.mesh;
+    m.P = ps.get_point3s("P");
+    if (m.P.empty()) throw SceneError(d.loc, "trianglemesh needs vertex positions \"point3 P\"");
+    std::vector<int> idx = ps.get_ints("indices");
+    SourceLoc iloc = ps.loc_of("indices", d.loc);
+    if (idx.empty()) {
+      // pbrt-v4 TriangleMesh::Create: indices may be omitted for a single triangle.
+      if (m.P.size() != 3)
+        throw SceneError(d.loc,
+                         "trianglemesh needs \"integer indices\" (only a mesh of exactly "
+                         "3 vertices may omit them; this one has " +
+                             std::to_string(m.P.size()) + ")");
+      idx = {0, 1, 2};
+    }
+    if (idx.size() % 3 != 0)
+      throw SceneError(
+          iloc, "trianglemesh has " + std::to_string(idx.size()) + " indices, not a multiple of 3");
+    m.indices.reserve(idx.size());
+    for (int i : idx) {
+      if (i < 0 || std::size_t(i) >= m.P.size())
+        throw SceneError(iloc, "trianglemesh index " + std::to_string(i) +
+                                   " out of range (the mesh has " + std::to_string(m.P.size()) +
+                                   " vertices)");
+      m.indices.push_back(unsigned(i));
+    }
+    m.N = ps.get_normals("N");
+    if (!m.N.empty() && m.N.size() != m.P.size())
+      throw SceneError(ps.loc_of("N", d.loc), "trianglemesh has " + std::to_string(m.N.size()) +
+                                                  " normals \"N\" for " +
+                                                  std::to_string(m.P.size()) + " vertices");
+    m.uv = ps.get_point2s("uv");
+    if (!m.uv.empty() && m.uv.size() != m.P.size())
+      throw SceneError(ps.loc_of("uv", d.loc), "trianglemesh has " + std::to_string(m.uv.size()) +
+                                                   " \"uv\" values for " +
+                                                   std::to_string(m.P.size()) + " vertices");
+  } else if (type == "plymesh") {
+    s.kind = Shape::Kind::Triangles;
+    if (!ps.find("filename"))
+      throw SceneError(d.loc, "plymesh needs a \"string filename\" parameter");
+    std::string name = ps.get_string("filename", "");
+    std::string path = resolve(name, dir);
+    if (path.size() > 3 && path.compare(path.size() - 3, 3, ".gz") == 0)
+      throw SceneError(d.loc, "gzip-compressed PLY files are not supported yet: \"" + path + "\"");
+    std::vector<std::string> ply_warnings;
+    try {
+      s.mesh = load_ply(path, &ply_warnings);
+    } catch (const SceneError& e) {
+      throw SceneError(d.loc, "PLY file \"" + path + "\": " + e.message);
+    }
+    for (const std::string& w : ply_warnings) warn(d.loc, "PLY file \"" + path + "\": " + w);
+  } else {
+    throw SceneError(d.loc, "shape '" + type + "' is not supported yet");
+  }
+  ps.report_unused("Shape '" + type + "'", scene_.warnings);
+
+  if (gs_.material >= 0) {
+    s.material = gs_.material;
+  } else if (!gs_.named_material.empty()) {
+    pending_.push_back({scene_.shapes.size(), gs_.named_material, gs_.named_material_loc});
+  } else {
+    s.material = default_material();
+  }
+  scene_.shapes.push_back(std::move(s));
+}
+
+// LightSource "point" / "spot" / "distant" / "infinite" (pbrt-v4 lights.cpp Create functions).
+void Parser::light_source(Tokenizer& tok, const Token& d) {
+  verify_world(d);
+  std::string type = string_arg(tok, d, "a light type");
+  ParamSet ps = params(tok);
+  for (const char* photometric : {"power", "illuminance"})
+    if (const Param* p = ps.find(photometric))
+      throw SceneError(
+          p->loc, "parameter \"" + p->name + "\" (photometric light scaling) is not supported yet");
+  Light l;
+  l.loc = d.loc;
+  float scale = ps.get_float("scale", 1.0f);
+  if (type == "point") {
+    // pbrt-v4 PointLight::Create: renderFromLight * Translate(from).
+    l.kind = Light::Kind::Point;
+    l.value =
+        ps.get_spectrum("I", SpectrumUse::Illuminant, &scene_.warnings).value_or(glm::vec3(1)) *
+        scale;
+    l.from = xform_point(gs_.ctm, ps.get_point3("from", glm::vec3(0)));
+  } else if (type == "spot") {
+    // pbrt-v4 SpotLight::Create: the light looks from "from" towards "to".
+    l.kind = Light::Kind::Spot;
+    l.value =
+        ps.get_spectrum("I", SpectrumUse::Illuminant, &scene_.warnings).value_or(glm::vec3(1)) *
+        scale;
+    glm::vec3 from = ps.get_point3("from", glm::vec3(0)),
+              to = ps.get_point3("to", glm::vec3(0, 0, 1));
+    l.from = xform_point(gs_.ctm, from);
+    glm::vec3 axis = xform_point(gs_.ctm, to) - l.from;
+    if (glm::length(axis) == 0.0f)
+      throw SceneError(ps.loc_of("to", d.loc), "spot light \"from\" and \"to\" are the same point");
+    l.dir = glm::normalize(axis);
+    l.cone_angle = ps.get_float("coneangle", 30.0f);
+    l.cone_delta = ps.get_float("conedeltaangle", 5.0f);
+    if (!(l.cone_angle > 0.0f && l.cone_angle <= 180.0f))
+      throw SceneError(ps.loc_of("coneangle", d.loc), "coneangle must be in (0, 180] degrees");
+    if (l.cone_delta < 0.0f)
+      throw SceneError(ps.loc_of("conedeltaangle", d.loc), "conedeltaangle must not be negative");
+  } else if (type == "distant") {
+    // pbrt-v4 DistantLight::Create: w = normalize(from - to) points towards the light.
+    l.kind = Light::Kind::Distant;
+    l.value =
+        ps.get_spectrum("L", SpectrumUse::Illuminant, &scene_.warnings).value_or(glm::vec3(1)) *
+        scale;
+    glm::vec3 w = xform_vector(
+        gs_.ctm, ps.get_point3("from", glm::vec3(0)) - ps.get_point3("to", glm::vec3(0, 0, 1)));
+    if (glm::length(w) == 0.0f)
+      throw SceneError(ps.loc_of("to", d.loc),
+                       "distant light \"from\" and \"to\" are the same point");
+    l.dir = glm::normalize(w);
+  } else if (type == "infinite") {
+    // pbrt-v4 InfiniteLight::Create: uniform when there is no "filename".
+    if (const Param* p = ps.find("filename"))
+      throw SceneError(p->loc, "image infinite lights not supported yet");
+    l.kind = Light::Kind::Infinite;
+    l.value =
+        ps.get_spectrum("L", SpectrumUse::Illuminant, &scene_.warnings).value_or(glm::vec3(1)) *
+        scale;
+  } else {
+    throw SceneError(d.loc, "light '" + type + "' is not supported yet");
+  }
+  ps.report_unused("LightSource '" + type + "'", scene_.warnings);
+  scene_.lights.push_back(l);
+}
+
+// AreaLightSource "diffuse" (pbrt-v4 DiffuseAreaLight::Create): emission of the shapes that
+// follow in the current attribute scope.
+void Parser::area_light_source(Tokenizer& tok, const Token& d) {
+  verify_world(d);
+  std::string type = string_arg(tok, d, "an area light type");
+  ParamSet ps = params(tok);
+  if (type != "diffuse") throw SceneError(d.loc, "area light '" + type + "' is not supported yet");
+  if (const Param* p = ps.find("filename"))
+    throw SceneError(p->loc, "image area lights are not supported yet");
+  if (const Param* p = ps.find("power"))
+    throw SceneError(p->loc,
+                     "parameter \"power\" (photometric light scaling) is not supported yet");
+  AreaLight a;
+  float scale = ps.get_float("scale", 1.0f);
+  a.L = ps.get_spectrum("L", SpectrumUse::Illuminant, &scene_.warnings).value_or(glm::vec3(1)) *
+        scale;
+  a.twosided = ps.get_bool("twosided", false);
+  ps.report_unused("AreaLightSource 'diffuse'", scene_.warnings);
+  gs_.area_light = a;
+}
+
+// A material of a supported type with its defaults filled in (pbrt-v4 materials.cpp).
+Material Parser::make_material(const std::string& type, const ParamSet& ps, const SourceLoc& loc,
+                               const SourceLoc& type_loc, const std::string& what) {
+  Material m;
+  m.type = type;
+  m.loc = loc;
+  if (type == "diffuse") {
+    // pbrt-v4 DiffuseMaterial::Create: reflectance defaults to a constant 0.5.
+    if (const Param* p = ps.find("normalmap"))
+      throw SceneError(p->loc, "normal maps are not supported yet");
+    std::optional<glm::vec3> r = ps.get_spectrum("reflectance", SpectrumUse::Albedo, nullptr);
+    glm::vec3 v = r.value_or(glm::vec3(0.5f));
+    m.params["reflectance"] = MaterialParam{{v.x, v.y, v.z}, "", ps.loc_of("reflectance", loc)};
+  } else {
+    throw SceneError(type_loc, "material '" + type + "' is not supported yet");
+  }
+  ps.report_unused(what, scene_.warnings);
+  return m;
+}
+
+// End of input: unclosed scopes, named materials, emptiness, and values that depend on
+// directives in any order (Option seed, frameaspectratio).
+Scene Parser::finish(const SourceLoc& eof) {
+  if (!stack_.empty())
+    throw SceneError(stack_.back().second, "AttributeBegin without a matching AttributeEnd");
+  for (const PendingMaterial& p : pending_) {
+    auto it = named_materials_.find(p.name);
+    if (it == named_materials_.end())
+      throw SceneError(p.loc, "named material \"" + p.name + "\" is not defined");
+    scene_.shapes[p.shape].material = it->second;
+  }
+  if (scene_.shapes.empty() && scene_.lights.empty())
+    throw SceneError(eof, world_ ? "empty scene: no shapes or lights"
+                                 : "empty scene: no shapes or lights (no WorldBegin)");
+  if (!sampler_seed_given_) scene_.sampler.seed = option_seed_;
+  if (frame_aspect_ && !scene_.camera.screen_window) {
+    // pbrt-v4 PerspectiveCamera::Create: the shorter side of the frame spans [-1, 1].
+    float f = *frame_aspect_;
+    scene_.camera.screen_window =
+        f > 1.0f ? glm::vec4(-f, f, -1, 1) : glm::vec4(-1, 1, -1 / f, 1 / f);
+  }
+  return std::move(scene_);
+}
+
+}  // namespace
+
+Scene load_scene(const std::string& path) {
+  std::string dir = fs::path(path).parent_path().string();
+  Parser parser(dir);
+  Tokenizer tok(read_scene_file(path, SourceLoc{path, 0, 0}, "scene file"), path);
+  parser.parse(tok, dir);
+  return parser.finish(tok.end_loc());
+}
+
+Scene load_scene_from_string(const std::string& text, const std::string& name,
+                             const std::string& base_dir) {
+  Parser parser(base_dir);
+  Tokenizer tok(text, name);
+  parser.parse(tok, base_dir);
+  return parser.finish(tok.end_loc());
+}
+
+}  // namespace basalt

@@ -1,0 +1,471 @@
+// Flattens a parsed Scene into the GPU tables of shaders/shared/layout.h: world-space geometry,
+// materials, lights with their selection distribution, the filter table and the BVH.
+#include "scene/tables.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "accel/bvh.h"
+
+namespace basalt {
+namespace {
+
+using gpu::INVALID_INDEX;
+
+constexpr double kPi = std::numbers::pi;
+// Bins per axis of the tabulated gaussian filter (Globals.counts.w).
+constexpr std::uint32_t kFilterBins = 64;
+// Relative tolerance of the similarity test for sphere transforms.
+constexpr float kSimilarityTolerance = 1e-4f;
+
+std::string warning_at(const SourceLoc& loc, const std::string& message) {
+  return loc.str() + ": warning: " + message;
+}
+
+bool all_finite(const glm::vec3& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+// Applies a homogeneous transform to a point (with the divide, as pbrt-v4 Transform does).
+glm::vec3 transform_point(const glm::mat4& m, const glm::vec3& p) {
+  glm::vec4 q = m * glm::vec4(p, 1.0f);
+  if (q.w == 1.0f) return glm::vec3(q);
+  return glm::vec3(q) / q.w;
+}
+
+gpu::Material diffuse_material(const glm::vec3& reflectance) {
+  gpu::Material m{};
+  m.type = gpu::MATERIAL_DIFFUSE;
+  for (auto& v : m.value) v = glm::vec4(0.0f);
+  m.value[gpu::SLOT_DIFFUSE_REFLECTANCE] = glm::vec4(reflectance, 0.0f);
+  m.texture[0] = m.texture[1] = glm::uvec4(INVALID_INDEX);
+  return m;
+}
+
+// A constant rgb material parameter (1 value = grey); textures come with a later issue.
+glm::vec3 rgb_param(const Material& m, const std::string& name, glm::vec3 fallback) {
+  auto it = m.params.find(name);
+  if (it == m.params.end()) return fallback;
+  const MaterialParam& p = it->second;
+  const SourceLoc& loc = p.loc.file.empty() ? m.loc : p.loc;
+  if (!p.texture.empty())
+    throw SceneError(loc, "texture '" + p.texture + "' for '" + name + "' is not supported yet");
+  glm::vec3 v;
+  if (p.value.size() == 1)
+    v = glm::vec3(p.value[0]);
+  else if (p.value.size() == 3)
+    v = glm::vec3(p.value[0], p.value[1], p.value[2]);
+  else
+    throw SceneError(loc, "'" + name + "' needs 1 or 3 values");
+  if (!all_finite(v)) throw SceneError(loc, "'" + name + "' is not finite");
+  return v;
+}
+
+gpu::Material convert_material(const Material& m) {
+  if (m.type == "diffuse") return diffuse_material(rgb_param(m, "reflectance", glm::vec3(0.5f)));
+  throw SceneError(m.loc, "material '" + m.type + "' is not supported yet");
+}
+
+// Screen window (pbrt-v4 CameraBase / PerspectiveCamera): the shorter image axis spans [-1, 1].
+glm::vec4 screen_window(const Scene& scene) {
+  if (scene.camera.screen_window) return *scene.camera.screen_window;
+  float aspect = static_cast<float>(scene.film.xres) / static_cast<float>(scene.film.yres);
+  if (aspect > 1.0f) return {-aspect, aspect, -1.0f, 1.0f};
+  return {-1.0f, 1.0f, -1.0f / aspect, 1.0f / aspect};
+}
+
+// Normalised cumulative table of weights: n + 1 entries, cdf[0] = 0, cdf[n] = 1 exactly;
+// summed in double and rounded once, so the float table is monotone. Uniform when every
+// weight is 0.
+std::vector<float> cumulative(const std::vector<double>& w) {
+  const std::size_t n = w.size();
+  double total = 0.0;
+  for (double x : w) total += x;
+  const bool uniform = !(total > 0.0) || !std::isfinite(total);
+  std::vector<float> cdf(n + 1);
+  double acc = 0.0;
+  cdf[0] = 0.0f;
+  for (std::size_t i = 0; i < n; ++i) {
+    acc += uniform ? 1.0 : w[i];
+    cdf[i + 1] = static_cast<float>(acc / (uniform ? static_cast<double>(n) : total));
+  }
+  if (n > 0) cdf[n] = 1.0f;
+  return cdf;
+}
+
+// Tabulated gaussian filter along one axis (pbrt-v4 GaussianFilter: f(x) = max(0, g(x) - g(r)),
+// g the normal density of sigma): kFilterBins bins over [-r, r], each weighted by f at its
+// centre. Centres are r (2i + 1 - N) / N so the table is exactly symmetric.
+std::vector<float> gaussian_cdf(float radius, float sigma) {
+  const double r = radius, s = sigma;
+  auto g = [s](double x) { return std::exp(-x * x / (2.0 * s * s)) / (std::sqrt(2.0 * kPi) * s); };
+  const double edge = g(r);
+  std::vector<double> w(kFilterBins);
+  for (std::uint32_t i = 0; i < kFilterBins; ++i) {
+    double x = r * (2.0 * i + 1.0 - kFilterBins) / kFilterBins;
+    double f = g(x) - edge;
+    w[i] = f > 0.0 ? f : 0.0;  // also maps NaN (sigma <= 0) to 0: the table turns uniform
+  }
+  return cumulative(w);
+}
+
+// Light power for the selection pmf (docs/path-spec.md section 6; pbrt-v4 Light::Phi), with
+// the mean of rgb as the scalar; R is the scene bounding-sphere radius.
+double light_power(const gpu::Light& l, const std::vector<gpu::Sphere>& spheres, double R) {
+  const double L = (static_cast<double>(l.L.x) + l.L.y + l.L.z) / 3.0;
+  const double sides = (l.flags & gpu::LIGHT_FLAG_TWOSIDED) ? 2.0 : 1.0;
+  double p = 0.0;
+  switch (l.type) {
+    case gpu::LIGHT_POINT: p = 4.0 * kPi * L; break;
+    case gpu::LIGHT_SPOT:
+      p = 2.0 * kPi * L * (1.0 - (static_cast<double>(l.params.x) + l.params.y) / 2.0);
+      break;
+    case gpu::LIGHT_DISTANT: p = kPi * R * R * L; break;
+    case gpu::LIGHT_INFINITE_UNIFORM: p = 4.0 * kPi * kPi * R * R * L; break;
+    case gpu::LIGHT_AREA_TRIANGLE: p = kPi * L * l.params.x * sides; break;
+    case gpu::LIGHT_AREA_SPHERE: {
+      double r = spheres[l.prim].center_radius.w;
+      p = kPi * L * 4.0 * kPi * r * r * sides;
+      break;
+    }
+    default: break;
+  }
+  return p > 0.0 ? p : 0.0;  // negative emission or NaN: never picked (unless all are 0)
+}
+
+gpu::Light area_light(std::uint32_t type, std::uint32_t prim, const AreaLight& a) {
+  gpu::Light l{};
+  l.type = type;
+  l.prim = prim;
+  l.flags = a.twosided ? gpu::LIGHT_FLAG_TWOSIDED : 0u;
+  l.L = glm::vec4(a.L, 0.0f);
+  return l;
+}
+
+// Checks that the 3x3 part of a sphere's transform is s * orthonormal (a similarity, mirror
+// allowed) and returns s and the unit axes.
+struct Similarity {
+  float scale;
+  glm::vec3 axis[3];
+};
+Similarity similarity_of(const Shape& shape) {
+  glm::mat4 m = shape.world_from_object;
+  if (m[0][3] != 0.0f || m[1][3] != 0.0f || m[2][3] != 0.0f || m[3][3] == 0.0f)
+    throw SceneError(shape.loc, "projective transform on a sphere is not supported");
+  m /= m[3][3];
+  glm::vec3 c[3] = {glm::vec3(m[0]), glm::vec3(m[1]), glm::vec3(m[2])};
+  float len[3] = {glm::length(c[0]), glm::length(c[1]), glm::length(c[2])};
+  float s = (len[0] + len[1] + len[2]) / 3.0f;
+  bool ok = s > 0.0f && std::isfinite(s) && all_finite(glm::vec3(m[3]));
+  for (int i = 0; ok && i < 3; ++i) {
+    ok = std::abs(len[i] - s) <= kSimilarityTolerance * s &&
+         std::abs(glm::dot(c[i], c[(i + 1) % 3])) <= kSimilarityTolerance * s * s;
+  }
+  if (!ok) throw SceneError(shape.loc, "non-uniform scale on a sphere is not supported");
+  Similarity out{s, {c[0] / len[0], c[1] / len[1], c[2] / len[2]}};
+  return out;
+}
+
+void check_emission(const glm::vec3& L, const SourceLoc& loc) {
+  if (!all_finite(L)) throw SceneError(loc, "light emission is not finite");
+}
+
+}  // namespace
+
+SceneTables build_tables(const Scene& scene, BuildTimes* times,
+                         std::vector<std::string>* warnings) {
+  SceneTables t;
+  gpu::Globals& g = t.globals;
+
+  if (scene.film.xres <= 0 || scene.film.yres <= 0)
+    throw SceneError(scene.film.loc, "image resolution must be positive");
+
+  // ---- materials -------------------------------------------------------------------------
+  t.materials.reserve(scene.materials.size() + 1);
+  for (const Material& m : scene.materials) t.materials.push_back(convert_material(m));
+  std::uint32_t default_material = INVALID_INDEX;  // diffuse 0.5, appended on first use
+  auto material_of = [&](const Shape& s) -> std::uint32_t {
+    if (s.material < 0) {
+      if (default_material == INVALID_INDEX) {
+        default_material = static_cast<std::uint32_t>(t.materials.size());
+        t.materials.push_back(diffuse_material(glm::vec3(0.5f)));
+      }
+      return default_material;
+    }
+    if (static_cast<std::size_t>(s.material) >= scene.materials.size())
+      throw SceneError(s.loc, "shape refers to an unknown material");
+    return static_cast<std::uint32_t>(s.material);
+  };
+
+  // ---- non-area lights (first in the light table; area lights follow in shape order) ------
+  g.infinite_lights = glm::uvec4(INVALID_INDEX);
+  std::uint32_t infinite_count = 0;
+  for (const Light& sl : scene.lights) {
+    check_emission(sl.value, sl.loc);
+    gpu::Light l{};
+    l.L = glm::vec4(sl.value, 0.0f);
+    const auto index = static_cast<std::uint32_t>(t.lights.size());
+    switch (sl.kind) {
+      case Light::Kind::Point:
+        l.type = gpu::LIGHT_POINT;
+        l.pos = glm::vec4(sl.from, 1.0f);
+        t.features |= gpu::FEATURE_LIGHT_POINT;
+        break;
+      case Light::Kind::Spot: {
+        l.type = gpu::LIGHT_SPOT;
+        l.pos = glm::vec4(sl.from, 1.0f);
+        glm::vec3 axis = glm::normalize(sl.dir);
+        if (!all_finite(axis)) throw SceneError(sl.loc, "spot light has no direction");
+        l.dir = glm::vec4(axis, 0.0f);
+        // pbrt-v4 SpotLight: cosFalloffStart = cos(coneangle - conedelta), cosFalloffEnd =
+        // cos(coneangle).
+        l.params = glm::vec4(
+            static_cast<float>(std::cos((sl.cone_angle - sl.cone_delta) * kPi / 180.0)),
+            static_cast<float>(std::cos(sl.cone_angle * kPi / 180.0)), 0.0f, 0.0f);
+        t.features |= gpu::FEATURE_LIGHT_SPOT;
+        break;
+      }
+      case Light::Kind::Distant: {
+        l.type = gpu::LIGHT_DISTANT;
+        glm::vec3 w = glm::normalize(sl.dir);
+        if (!all_finite(w)) throw SceneError(sl.loc, "distant light has no direction");
+        l.dir = glm::vec4(w, 0.0f);
+        t.features |= gpu::FEATURE_LIGHT_DISTANT;
+        break;
+      }
+      case Light::Kind::Infinite:
+        l.type = gpu::LIGHT_INFINITE_UNIFORM;
+        if (infinite_count == gpu::MAX_INFINITE_LIGHTS)
+          throw SceneError(sl.loc, "more than " + std::to_string(gpu::MAX_INFINITE_LIGHTS) +
+                                       " infinite lights are not supported");
+        g.infinite_lights[infinite_count++] = index;
+        t.features |= gpu::FEATURE_LIGHT_INFINITE;
+        break;
+    }
+    t.lights.push_back(l);
+  }
+
+  // ---- shapes: triangles and spheres in world space, area lights --------------------------
+  std::vector<Aabb> tri_bounds, sphere_bounds;
+  for (const Shape& shape : scene.shapes) {
+    const std::uint32_t material = material_of(shape);
+    const bool emissive = shape.area_light.has_value();
+    if (emissive) check_emission(shape.area_light->L, shape.loc);
+
+    if (shape.kind == Shape::Kind::Sphere) {
+      if (!(shape.radius > 0.0f) || !std::isfinite(shape.radius))
+        throw SceneError(shape.loc, "sphere radius must be positive and finite");
+      Similarity sim = similarity_of(shape);
+      const glm::vec3 center = transform_point(shape.world_from_object, glm::vec3(0.0f));
+      const float radius = shape.radius * sim.scale;
+      if (!std::isfinite(radius) || !(radius > 0.0f))
+        throw SceneError(shape.loc, "sphere radius must be positive and finite");
+      gpu::Sphere s{};
+      s.center_radius = glm::vec4(center, radius);
+      s.axis_x = glm::vec4(sim.axis[0], 0.0f);
+      s.axis_y = glm::vec4(sim.axis[1], 0.0f);
+      s.axis_z = glm::vec4(sim.axis[2], 0.0f);
+      s.material = material;
+      // pbrt-v4 spheres flip for ReverseOrientation only (the handedness flip of the
+      // transform cancels against the object-space normal's, see layout.h).
+      s.flags = shape.reverse_orientation ? gpu::SHAPE_FLAG_FLIP_NORMAL : 0u;
+      s.light = INVALID_INDEX;
+      const auto sphere_index = static_cast<std::uint32_t>(t.spheres.size());
+      if (emissive) {
+        s.light = static_cast<std::uint32_t>(t.lights.size());
+        t.lights.push_back(area_light(gpu::LIGHT_AREA_SPHERE, sphere_index, *shape.area_light));
+      }
+      t.spheres.push_back(s);
+      // Pad by a few ulps of the coordinates: centre +- r is rounded and the intersection
+      // re-projects hits onto the sphere, which may land just outside a tight box.
+      const float pad = (std::max({std::abs(center.x), std::abs(center.y), std::abs(center.z)}) +
+                         radius) * 0x1p-20f;
+      Aabb box;
+      box.lo = center - glm::vec3(radius + pad);
+      box.hi = center + glm::vec3(radius + pad);
+      sphere_bounds.push_back(box);
+      continue;
+    }
+
+    // Triangle mesh (pbrt-v4 TriangleMesh: positions and normals transformed to world space,
+    // normals negated for ReverseOrientation).
+    const TriangleMesh& tm = shape.mesh;
+    if (tm.indices.size() % 3 != 0)
+      throw SceneError(shape.loc, "triangle indices are not a multiple of 3");
+    if (!tm.N.empty() && tm.N.size() != tm.P.size())
+      throw SceneError(shape.loc, "number of normals differs from the number of positions");
+    if (!tm.uv.empty() && tm.uv.size() != tm.P.size())
+      throw SceneError(shape.loc, "number of uvs differs from the number of positions");
+    for (unsigned i : tm.indices)
+      if (i >= tm.P.size()) throw SceneError(shape.loc, "vertex index out of range");
+    if (t.vertices.size() + tm.P.size() >= INVALID_INDEX)
+      throw SceneError(shape.loc, "too many vertices");
+
+    const glm::mat4& m = shape.world_from_object;
+    const glm::mat3 linear(m);
+    const glm::mat3 normal_from_object = glm::transpose(glm::inverse(linear));
+    const auto vbase = static_cast<std::uint32_t>(t.vertices.size());
+    for (std::size_t v = 0; v < tm.P.size(); ++v) {
+      gpu::Vertex out{};
+      glm::vec3 p = transform_point(m, tm.P[v]);
+      glm::vec3 n(0.0f);
+      if (!tm.N.empty()) {
+        n = glm::normalize(normal_from_object * tm.N[v]);
+        if (shape.reverse_orientation) n = -n;
+        if (!all_finite(n)) n = glm::vec3(0.0f);  // zero normal: the shader falls back to ng
+      }
+      glm::vec2 uv = tm.uv.empty() ? glm::vec2(0.0f) : tm.uv[v];
+      out.p_u = glm::vec4(p, uv.x);
+      out.n_v = glm::vec4(n, uv.y);
+      t.vertices.push_back(out);
+    }
+
+    gpu::Mesh mesh{};
+    mesh.material = material;
+    mesh.tri_base = static_cast<std::uint32_t>(t.triangles.size());
+    mesh.light_base = INVALID_INDEX;
+    const bool swaps_handedness = glm::determinant(linear) < 0.0f;
+    mesh.flags = (shape.reverse_orientation != swaps_handedness) ? gpu::SHAPE_FLAG_FLIP_NORMAL : 0u;
+    if (!tm.N.empty()) mesh.flags |= gpu::SHAPE_FLAG_HAS_NORMALS;
+    if (!tm.uv.empty()) mesh.flags |= gpu::SHAPE_FLAG_HAS_UV;
+    const auto mesh_index = static_cast<std::uint32_t>(t.meshes.size());
+
+    std::size_t dropped = 0;
+    for (std::size_t k = 0; k < tm.indices.size(); k += 3) {
+      const std::uint32_t i0 = vbase + tm.indices[k], i1 = vbase + tm.indices[k + 1],
+                          i2 = vbase + tm.indices[k + 2];
+      const glm::vec3 p0(t.vertices[i0].p_u), p1(t.vertices[i1].p_u), p2(t.vertices[i2].p_u);
+      // Degenerate: the intersection test (docs/path-spec.md section 3) misses triangles whose
+      // cross(p0 - p2, p1 - p2) is zero, and the shading normal normalises it; drop those
+      // (and any whose float length underflows or overflows) from every table.
+      const glm::vec3 cr = glm::cross(p0 - p2, p1 - p2);
+      const float len = glm::length(cr);
+      if (!all_finite(p0) || !all_finite(p1) || !all_finite(p2) || !(len > 0.0f) ||
+          !std::isfinite(len)) {
+        ++dropped;
+        continue;
+      }
+      if (t.triangles.size() >= gpu::PRIM_INDEX_MASK)
+        throw SceneError(shape.loc, "too many triangles");
+      const auto tri_index = static_cast<std::uint32_t>(t.triangles.size());
+      t.triangles.push_back({i0, i1, i2, mesh_index});
+      if (emissive) {
+        if (mesh.light_base == INVALID_INDEX)
+          mesh.light_base = static_cast<std::uint32_t>(t.lights.size());
+        gpu::Light l = area_light(gpu::LIGHT_AREA_TRIANGLE, tri_index, *shape.area_light);
+        // World area, from the double-precision cross product.
+        const glm::dvec3 e0 = glm::dvec3(p0) - glm::dvec3(p2), e1 = glm::dvec3(p1) - glm::dvec3(p2);
+        l.params = glm::vec4(static_cast<float>(0.5 * glm::length(glm::cross(e0, e1))), 0, 0, 0);
+        t.lights.push_back(l);
+      }
+      Aabb box;
+      box.extend(p0);
+      box.extend(p1);
+      box.extend(p2);
+      tri_bounds.push_back(box);
+    }
+    if (dropped > 0 && warnings) {
+      warnings->push_back(warning_at(
+          shape.loc, "dropped " + std::to_string(dropped) + " degenerate triangle" +
+                         (dropped == 1 ? "" : "s") + " (zero area or non-finite vertices)"));
+    }
+    if (!tm.N.empty()) t.features |= gpu::FEATURE_SHADING_NORMALS;
+    t.meshes.push_back(mesh);
+  }
+
+  // ---- scene bounds: bounding sphere of all kept geometry ---------------------------------
+  Aabb world;
+  for (const Aabb& b : tri_bounds) world.extend(b);
+  for (const Aabb& b : sphere_bounds) world.extend(b);
+  if (world.empty()) {
+    g.scene_sphere = glm::vec4(glm::vec3(scene.camera.world_from_camera[3]), 1.0f);
+  } else {
+    g.scene_sphere = glm::vec4(world.center(), 0.5f * glm::length(world.hi - world.lo));
+  }
+
+  // ---- light selection: pmf proportional to power (path-spec section 6) ------------------
+  {
+    std::vector<double> power(t.lights.size());
+    for (std::size_t i = 0; i < t.lights.size(); ++i)
+      power[i] = light_power(t.lights[i], t.spheres, g.scene_sphere.w);
+    if (t.lights.empty()) {
+      t.light_cdf = {0.0f};
+    } else {
+      t.light_cdf = cumulative(power);
+      // pmf is the float difference of the stored cdf, so both agree bit for bit.
+      for (std::size_t i = 0; i < t.lights.size(); ++i)
+        t.lights[i].pmf = t.light_cdf[i + 1] - t.light_cdf[i];
+    }
+  }
+
+  // ---- BVH over triangles then spheres ---------------------------------------------------
+  {
+    std::vector<Aabb> bounds;
+    bounds.reserve(tri_bounds.size() + sphere_bounds.size());
+    bounds.insert(bounds.end(), tri_bounds.begin(), tri_bounds.end());
+    bounds.insert(bounds.end(), sphere_bounds.begin(), sphere_bounds.end());
+    const auto start = std::chrono::steady_clock::now();
+    Bvh bvh = build_bvh(bounds);
+    const auto stop = std::chrono::steady_clock::now();
+    if (times) times->seconds_bvh = std::chrono::duration<double>(stop - start).count();
+    t.nodes = std::move(bvh.nodes);
+    t.prim_refs.resize(bvh.prim_order.size());
+    const auto tri_count = static_cast<std::uint32_t>(tri_bounds.size());
+    for (std::size_t i = 0; i < t.prim_refs.size(); ++i) {
+      const std::uint32_t p = bvh.prim_order[i];
+      t.prim_refs[i] = p < tri_count ? p : (p - tri_count) | gpu::PRIM_SPHERE_BIT;
+    }
+  }
+
+  // ---- filter ----------------------------------------------------------------------------
+  std::uint32_t filter_type = gpu::FILTER_BOX, filter_n = 0;
+  if (scene.filter.type == Filter::Type::Gaussian) {
+    filter_type = gpu::FILTER_GAUSSIAN;
+    filter_n = kFilterBins;
+    t.filter_cdf = gaussian_cdf(scene.filter.radius.x, scene.filter.sigma);
+    std::vector<float> y = gaussian_cdf(scene.filter.radius.y, scene.filter.sigma);
+    t.filter_cdf.insert(t.filter_cdf.end(), y.begin(), y.end());
+    t.features |= gpu::FEATURE_FILTER_GAUSSIAN;
+  }
+
+  // ---- globals ---------------------------------------------------------------------------
+  const Camera& cam = scene.camera;
+  g.world_from_camera = cam.world_from_camera;
+  g.screen = screen_window(scene);
+  g.lens = glm::vec4(static_cast<float>(std::tan(cam.fov_deg * kPi / 180.0 / 2.0)),
+                     cam.lens_radius, cam.focal_distance, 0.0f);
+  g.filter_radius = glm::vec4(scene.filter.radius, 0.0f, 0.0f);
+  g.image = glm::uvec4(static_cast<std::uint32_t>(scene.film.xres),
+                       static_cast<std::uint32_t>(scene.film.yres),
+                       static_cast<std::uint32_t>(std::max(0, scene.integrator.max_depth)),
+                       static_cast<std::uint32_t>(scene.sampler.seed));
+  g.counts = glm::uvec4(static_cast<std::uint32_t>(t.lights.size()), infinite_count, filter_type,
+                        filter_n);
+
+  if (!t.triangles.empty()) t.features |= gpu::FEATURE_TRIANGLES;
+  if (!t.spheres.empty()) t.features |= gpu::FEATURE_SPHERES;
+  if (t.lights.size() > scene.lights.size()) t.features |= gpu::FEATURE_LIGHT_AREA;
+  for (const gpu::Material& m : t.materials)
+    if (m.type == gpu::MATERIAL_DIFFUSE) t.features |= gpu::FEATURE_MAT_DIFFUSE;
+  if (cam.lens_radius > 0.0f) t.features |= gpu::FEATURE_THIN_LENS;
+  g.features = glm::uvec4(t.features, 0u, 0u, 0u);
+  return t;
+}
+
+std::vector<std::string> feature_names(std::uint32_t features) {
+  static const char* const kNames[gpu::FEATURE_COUNT] = {
+      "triangles",        "spheres",         "light_point", "light_spot",
+      "light_distant",    "light_infinite",  "light_area",  "material_diffuse",
+      "filter_gaussian",  "thin_lens",       "shading_normals"};
+  std::vector<std::string> names;
+  for (std::uint32_t bit = 0; bit < gpu::FEATURE_COUNT; ++bit)
+    if (features & (1u << bit)) names.emplace_back(kNames[bit]);
+  for (std::uint32_t bit = gpu::FEATURE_COUNT; bit < 32; ++bit)
+    if (features & (1u << bit)) names.push_back("feature_" + std::to_string(bit));
+  return names;
+}
+
+}  // namespace basalt

@@ -1,0 +1,95 @@
+// Render statistics written by --stats as JSON.
+#include "util/stats.h"
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace basalt {
+
+namespace {
+
+/// JSON string literal with escapes.
+std::string quote(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if ((unsigned char)c < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      out += buf;
+    } else {
+      out += c;
+    }
+  }
+  return out + "\"";
+}
+
+/// JSON number (non-finite values become null).
+std::string number(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream s;
+  s.precision(9);
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+std::string to_json(const RenderStats& st) {
+  std::ostringstream o;
+  o << "{\n";
+  o << "  \"device\": " << quote(st.device) << ",\n";
+  o << "  \"driver\": " << quote(st.driver) << ",\n";
+  o << "  \"scene\": " << quote(st.scene) << ",\n";
+  o << "  \"width\": " << st.width << ",\n  \"height\": " << st.height << ",\n";
+  o << "  \"spp\": " << st.spp << ",\n  \"seed\": " << st.seed << ",\n";
+  o << "  \"seconds_parse\": " << number(st.seconds_parse) << ",\n";
+  o << "  \"seconds_bvh\": " << number(st.seconds_bvh) << ",\n";
+  o << "  \"seconds_upload\": " << number(st.seconds_upload) << ",\n";
+  o << "  \"seconds_pipeline\": " << number(st.seconds_pipeline) << ",\n";
+  o << "  \"seconds_render\": " << number(st.seconds_render) << ",\n";
+  o << "  \"samples_per_second\": " << number(st.samples_per_second) << ",\n";
+  o << "  \"rays_per_second\": " << number(st.rays_per_second) << ",\n";
+  o << "  \"rays\": " << st.rays << ",\n";
+  o << "  \"peak_rss_bytes\": " << st.peak_rss_bytes << ",\n";
+  o << "  \"triangles\": " << st.triangles << ",\n";
+  o << "  \"spheres\": " << st.spheres << ",\n";
+  o << "  \"lights\": " << st.lights << ",\n";
+  o << "  \"features\": [";
+  for (size_t i = 0; i < st.features.size(); ++i) o << (i ? ", " : "") << quote(st.features[i]);
+  o << "]\n}\n";
+  return o.str();
+}
+
+std::uint64_t peak_rss_bytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return std::uint64_t(usage.ru_maxrss) * 1024u;  // Linux reports KiB
+}
+
+void write_file_atomic(const std::string& path, const std::string& text) {
+  std::filesystem::path tmp = path;
+  tmp += ".tmp-" + std::to_string(::getpid());
+  {
+    std::ofstream f(tmp, std::ios::binary);
+    f << text;
+    f.flush();
+    if (!f) {
+      std::error_code ec;
+      std::filesystem::remove(tmp, ec);
+      throw std::runtime_error("cannot write " + path);
+    }
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+}  // namespace basalt

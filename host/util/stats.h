@@ -1,0 +1,27 @@
+// Render statistics written by --stats as JSON.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace basalt {
+
+/// Everything --stats reports (keys named as in the JSON).
+struct RenderStats {
+  std::string device, driver, scene;
+  int width = 0, height = 0, spp = 0, seed = 0;
+  double seconds_parse = 0, seconds_bvh = 0, seconds_upload = 0, seconds_pipeline = 0,
+         seconds_render = 0;
+  double samples_per_second = 0, rays_per_second = 0;
+  std::uint64_t rays = 0, peak_rss_bytes = 0, triangles = 0, spheres = 0, lights = 0;
+  std::vector<std::string> features;
+};
+
+/// \brief Serialises \p stats as a JSON object.
+std::string to_json(const RenderStats& stats);
+/// \brief Peak resident set size of this process, in bytes.
+std::uint64_t peak_rss_bytes();
+/// \brief Writes \p text to \p path through a temporary file renamed into place.
+void write_file_atomic(const std::string& path, const std::string& text);
+
+}  // namespace basalt

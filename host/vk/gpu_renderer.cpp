@@ -1,0 +1,239 @@
+// The Vulkan compute path: uploads scene tables, builds the specialised pipeline,
+// dispatches sample passes and reads back the accumulated image.
+#include "vk/gpu_renderer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+#include "shaders/probe.spv.h"
+#include "shaders/render.spv.h"
+
+namespace basalt::vkx {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// Seconds since \p t0.
+double since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+/// A multiplier coprime with \p n near n * 0.618, so that consecutive invocations touch
+/// pixels spread over the whole image (lavapipe gives each thread a contiguous chunk of
+/// workgroups; shuffling balances expensive regions). The product (n-1) * stride must
+/// fit in 32 bits (shader contract), so the stride is capped.
+std::uint32_t pixel_stride(std::uint32_t n) {
+  if (n <= 2) return 1;
+  std::uint64_t cap = std::max<std::uint64_t>(1, (0xffffffffull / (n - 1)));
+  std::uint64_t s = std::min<std::uint64_t>(cap, std::uint64_t(n * 0.6180339887) | 1u);
+  for (; s > 1; --s)
+    if (std::gcd<std::uint64_t, std::uint64_t>(s, n) == 1) return std::uint32_t(s);
+  return 1;
+}
+
+const char* kTableNames[] = {"globals", "BVH nodes", "primitive refs", "triangles",
+                             "vertices", "meshes",    "spheres",        "materials",
+                             "lights",   "light cdf", "filter table",   "accumulation", "counters"};
+
+}  // namespace
+
+GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t features)
+    : ctx_(ctx), width_(t.width()), height_(t.height()) {
+  stride_ = pixel_stride(width_ * height_);
+  auto t0 = Clock::now();
+  auto usage = vk::BufferUsageFlagBits::eStorageBuffer;
+  struct Src {
+    const void* data;
+    std::size_t bytes;
+  };
+  const std::size_t pixels = std::size_t(width_) * height_;
+  const Src src[BINDING_COUNT] = {
+      {&t.globals, sizeof(t.globals)},
+      {t.nodes.data(), t.nodes.size() * sizeof(gpu::BvhNode)},
+      {t.prim_refs.data(), t.prim_refs.size() * sizeof(std::uint32_t)},
+      {t.triangles.data(), t.triangles.size() * sizeof(gpu::Triangle)},
+      {t.vertices.data(), t.vertices.size() * sizeof(gpu::Vertex)},
+      {t.meshes.data(), t.meshes.size() * sizeof(gpu::Mesh)},
+      {t.spheres.data(), t.spheres.size() * sizeof(gpu::Sphere)},
+      {t.materials.data(), t.materials.size() * sizeof(gpu::Material)},
+      {t.lights.data(), t.lights.size() * sizeof(gpu::Light)},
+      {t.light_cdf.data(), t.light_cdf.size() * sizeof(float)},
+      {t.filter_cdf.data(), t.filter_cdf.size() * sizeof(float)},
+      {nullptr, pixels * sizeof(glm::vec4)},
+      {nullptr, 4 * sizeof(std::uint32_t)}};
+  const std::uint64_t limit = ctx.info().max_storage_buffer_range;
+  for (int i = 0; i < BINDING_COUNT; ++i)
+    if (src[i].bytes > limit)
+      throw std::runtime_error(
+          std::string("scene too large for this device: the ") + kTableNames[i] + " table needs " +
+          std::to_string(src[i].bytes) + " bytes, more than maxStorageBufferRange (" +
+          std::to_string(limit) + " bytes) of " + ctx.info().name);
+  tables_.resize(BINDING_COUNT);
+  for (int i = 0; i < BINDING_COUNT; ++i) {
+    tables_[i] = ctx.create_buffer(src[i].bytes, usage);
+    if (src[i].data && src[i].bytes) std::memcpy(tables_[i].mapped, src[i].data, src[i].bytes);
+    device_bytes += tables_[i].size;
+  }
+  seconds_upload = since(t0);
+
+  t0 = Clock::now();
+  std::vector<Buffer*> bindings;
+  for (auto& b : tables_) bindings.push_back(&b);
+  render_ = make_pipeline(render_spv, sizeof(render_spv), features, bindings);
+  // lavapipe compiles at first dispatch: an empty pass makes that cost part of pipeline time.
+  dispatch(render_, gpu::PassConstants{0, 0, 0, 0, stride_, width_ * height_, 0, 0}, 1);
+  seconds_pipeline = since(t0);
+}
+
+GpuRenderer::~GpuRenderer() {
+  ctx_.device.waitIdle();
+  destroy_pipeline(render_);
+  for (auto& b : tables_) ctx_.destroy_buffer(b);
+}
+
+GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std::size_t bytes,
+                                                 std::uint32_t features,
+                                                 const std::vector<Buffer*>& bindings) {
+  auto& dev = ctx_.device;
+  Pipeline p;
+  std::vector<vk::DescriptorSetLayoutBinding> layout_bindings;
+  for (std::uint32_t i = 0; i < bindings.size(); ++i)
+    layout_bindings.push_back({.binding = i,
+                               .descriptorType = vk::DescriptorType::eStorageBuffer,
+                               .descriptorCount = 1,
+                               .stageFlags = vk::ShaderStageFlagBits::eCompute});
+  p.set_layout = dev.createDescriptorSetLayout(
+      {.bindingCount = std::uint32_t(layout_bindings.size()), .pBindings = layout_bindings.data()});
+  vk::PushConstantRange push{.stageFlags = vk::ShaderStageFlagBits::eCompute,
+                             .offset = 0,
+                             .size = sizeof(gpu::PassConstants)};
+  p.layout = dev.createPipelineLayout({.setLayoutCount = 1,
+                                       .pSetLayouts = &p.set_layout,
+                                       .pushConstantRangeCount = 1,
+                                       .pPushConstantRanges = &push});
+  vk::ShaderModule module = dev.createShaderModule({.codeSize = bytes, .pCode = spirv});
+  vk::SpecializationMapEntry entry{.constantID = 0, .offset = 0, .size = sizeof(std::uint32_t)};
+  vk::SpecializationInfo spec{
+      .mapEntryCount = 1, .pMapEntries = &entry, .dataSize = sizeof(features), .pData = &features};
+  vk::ComputePipelineCreateInfo info{
+      .stage = {.stage = vk::ShaderStageFlagBits::eCompute,
+                .module = module,
+                .pName = "main",
+                .pSpecializationInfo = &spec},
+      .layout = p.layout};
+  auto result = dev.createComputePipeline(nullptr, info);
+  dev.destroyShaderModule(module);
+  if (result.result != vk::Result::eSuccess) throw std::runtime_error("pipeline creation failed");
+  p.pipeline = result.value;
+
+  vk::DescriptorPoolSize size{.type = vk::DescriptorType::eStorageBuffer,
+                              .descriptorCount = std::uint32_t(bindings.size())};
+  p.pool = dev.createDescriptorPool({.maxSets = 1, .poolSizeCount = 1, .pPoolSizes = &size});
+  p.set = dev.allocateDescriptorSets(
+      {.descriptorPool = p.pool, .descriptorSetCount = 1, .pSetLayouts = &p.set_layout})[0];
+  std::vector<vk::DescriptorBufferInfo> infos;
+  for (auto* b : bindings) infos.push_back({.buffer = b->buffer, .offset = 0, .range = b->size});
+  std::vector<vk::WriteDescriptorSet> writes;
+  for (std::uint32_t i = 0; i < infos.size(); ++i)
+    writes.push_back({.dstSet = p.set,
+                      .dstBinding = i,
+                      .descriptorCount = 1,
+                      .descriptorType = vk::DescriptorType::eStorageBuffer,
+                      .pBufferInfo = &infos[i]});
+  dev.updateDescriptorSets(writes, {});
+  return p;
+}
+
+void GpuRenderer::destroy_pipeline(Pipeline& p) {
+  auto& dev = ctx_.device;
+  if (p.pool) dev.destroyDescriptorPool(p.pool);
+  if (p.pipeline) dev.destroyPipeline(p.pipeline);
+  if (p.layout) dev.destroyPipelineLayout(p.layout);
+  if (p.set_layout) dev.destroyDescriptorSetLayout(p.set_layout);
+  p = Pipeline{};
+}
+
+void GpuRenderer::dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint32_t invocations) {
+  ctx_.submit_and_wait([&](vk::CommandBuffer cmd) {
+    cmd.bindPipeline(vk::PipelineBindPoint::eCompute, p.pipeline);
+    cmd.bindDescriptorSets(vk::PipelineBindPoint::eCompute, p.layout, 0, p.set, {});
+    cmd.pushConstants(p.layout, vk::ShaderStageFlagBits::eCompute, 0, sizeof(pc), &pc);
+    cmd.dispatch(std::max(1u, (invocations + 63) / 64), 1, 1);
+  });
+  // The device counts rays in 32 bits per pass; the host keeps the 64-bit total.
+  auto* counters = static_cast<std::uint32_t*>(tables_[BINDING_COUNTERS].mapped);
+  rays_ += counters[0];
+  counters[0] = 0;
+}
+
+void GpuRenderer::render(std::uint32_t sample_start, std::uint32_t count,
+                         const std::function<void(double)>& progress, double seconds_per_pass) {
+  const std::uint32_t total = width_ * height_;
+  const double work = double(total) * count;
+  double done = 0.0;
+  std::uint32_t s = sample_start;
+  const std::uint32_t end = sample_start + count;
+  std::uint32_t pixel = 0;  // next pixel (in shuffled order) of the current sample block
+  while (s < end) {
+    // Size the pass from the measured rate; the first pass is small to measure it.
+    double units = units_per_second_ > 0 ? units_per_second_ * seconds_per_pass : 4096.0;
+    std::uint32_t samples = 1, pixels = total - pixel;
+    if (pixel == 0 && units >= 2.0 * total)
+      samples = std::uint32_t(std::min<double>(end - s, std::floor(units / total)));
+    else
+      pixels = std::uint32_t(std::min<double>(total - pixel, std::max(64.0, units)));
+    gpu::PassConstants pc{s, samples, pixel, pixels, stride_, total, 0, 0};
+    auto t0 = Clock::now();
+    dispatch(render_, pc, pixels);
+    double dt = since(t0), u = double(pixels) * samples;
+    units_per_second_ = dt > 0 ? u / dt : units_per_second_;
+    done += u;
+    pixel += pixels;
+    if (pixel >= total) {
+      pixel = 0;
+      s += samples;
+    }
+    if (progress) progress(done / work);
+  }
+}
+
+std::vector<glm::vec4> GpuRenderer::accum() const {
+  const Buffer& b = tables_[BINDING_ACCUM];
+  std::vector<glm::vec4> out(std::size_t(width_) * height_);
+  std::memcpy(out.data(), b.mapped, out.size() * sizeof(glm::vec4));
+  return out;
+}
+
+void GpuRenderer::clear() {
+  Buffer& b = tables_[BINDING_ACCUM];
+  std::memset(b.mapped, 0, b.size);
+  rays_ = 0;
+}
+
+std::vector<gpu::ProbeOut> GpuRenderer::probe(const std::vector<gpu::ProbeIn>& queries) {
+  const auto usage = vk::BufferUsageFlagBits::eStorageBuffer;
+  Buffer in = ctx_.create_buffer(queries.size() * sizeof(gpu::ProbeIn), usage);
+  Buffer out = ctx_.create_buffer(queries.size() * sizeof(gpu::ProbeOut), usage);
+  if (!queries.empty()) std::memcpy(in.mapped, queries.data(), queries.size() * sizeof(gpu::ProbeIn));
+  std::vector<Buffer*> bindings;
+  for (auto& b : tables_) bindings.push_back(&b);
+  bindings.push_back(&in);
+  bindings.push_back(&out);
+  Pipeline p = make_pipeline(probe_spv, sizeof(probe_spv), 0xffffffffu, bindings);
+  const std::uint32_t n = std::uint32_t(queries.size());
+  dispatch(p, gpu::PassConstants{0, 1, 0, n, 1, n, 0, 0}, n);
+  std::vector<gpu::ProbeOut> result(queries.size());
+  if (n) std::memcpy(result.data(), out.mapped, n * sizeof(gpu::ProbeOut));
+  destroy_pipeline(p);
+  ctx_.destroy_buffer(in);
+  ctx_.destroy_buffer(out);
+  return result;
+}
+
+}  // namespace basalt::vkx

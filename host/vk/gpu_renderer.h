@@ -1,0 +1,68 @@
+// The Vulkan compute path: uploads scene tables, builds the specialised pipeline,
+// dispatches sample passes and reads back the accumulated image.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "scene/tables.h"
+#include "vk/context.h"
+
+namespace basalt::vkx {
+
+/// Renders one SceneTables on one Context. Tables are uploaded at construction.
+class GpuRenderer {
+ public:
+  /// \brief Uploads \p tables and creates the render pipeline specialised for \p features.
+  /// \param features feature bits for the specialization constant; defaults to the scene's.
+  /// \throws std::runtime_error if a table exceeds the device's maxStorageBufferRange.
+  GpuRenderer(Context& ctx, const SceneTables& tables, std::uint32_t features);
+  GpuRenderer(Context& ctx, const SceneTables& tables)
+      : GpuRenderer(ctx, tables, tables.features) {}
+  ~GpuRenderer();
+  GpuRenderer(const GpuRenderer&) = delete;
+  GpuRenderer& operator=(const GpuRenderer&) = delete;
+
+  /// \brief Adds samples [sample_start, sample_start + count) of every pixel into the
+  ///        accumulation buffer, in passes of about \p seconds_per_pass each.
+  /// \param progress called after each pass with the fraction of this call done.
+  void render(std::uint32_t sample_start, std::uint32_t count,
+              const std::function<void(double)>& progress = {}, double seconds_per_pass = 0.25);
+  /// \brief The accumulation buffer: per pixel (sum of L, sum of weights).
+  std::vector<glm::vec4> accum() const;
+  /// \brief Rays traced (camera, continuation and shadow rays) since construction or clear().
+  std::uint64_t rays() const { return rays_; }
+  /// \brief Zeroes the accumulation buffer and the ray count.
+  void clear();
+  /// \brief Runs shaders/tests/probe.comp over \p queries (GPU twin of basalt::cpu::probe).
+  std::vector<gpu::ProbeOut> probe(const std::vector<gpu::ProbeIn>& queries);
+
+  double seconds_upload = 0.0;    // table upload
+  double seconds_pipeline = 0.0;  // pipeline creation plus the driver's compile at first use
+  std::uint64_t device_bytes = 0; // bytes of all scene tables on the device
+
+ private:
+  struct Pipeline {
+    vk::DescriptorSetLayout set_layout;
+    vk::PipelineLayout layout;
+    vk::Pipeline pipeline;
+    vk::DescriptorPool pool;
+    vk::DescriptorSet set;
+  };
+  Pipeline make_pipeline(const std::uint32_t* spirv, std::size_t bytes, std::uint32_t features,
+                         const std::vector<Buffer*>& bindings);
+  void destroy_pipeline(Pipeline& p);
+  void dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint32_t invocations);
+
+  Context& ctx_;
+  std::uint32_t width_, height_;
+  std::uint32_t stride_;  // pixel shuffle multiplier, coprime with the pixel count
+  std::vector<Buffer> tables_;  // indexed by BINDING_*
+  Pipeline render_{};
+  std::uint64_t rays_ = 0;
+  double units_per_second_ = 0.0;  // measured pixel-samples per second
+};
+
+}  // namespace basalt::vkx

@@ -1,0 +1,235 @@
+// Light selection, light sampling and light pdfs for MIS (docs/path-spec.md section 6).
+// Needs bindings.glsl.
+#ifndef BASALT_LIGHTS_GLSL
+#define BASALT_LIGHTS_GLSL
+
+#include "math.glsl"
+#include "sampling.glsl"
+#include "surface.glsl"
+
+const uint FEATURE_ANY_LIGHT = FEATURE_LIGHT_POINT | FEATURE_LIGHT_SPOT | FEATURE_LIGHT_DISTANT |
+                               FEATURE_LIGHT_INFINITE | FEATURE_LIGHT_AREA;
+
+// Below this sin^2 of the cone half-angle (1.5 degrees) the sphere cone sampling switches to
+// a Taylor expansion (pbrt-v4 6.2.4 Sphere::Sample).
+const float SPHERE_SMALL_SIN2 = 0.00068523;
+
+// A light sample at a shading point: incident direction wi (unit, towards the light),
+// radiance Li arriving along it, solid-angle pdf (1 for delta lights), and what the shadow
+// ray aims at: the point q (normal nl for area lights) or, when at_infinity, direction wi.
+struct LightSample {
+  vec3 Li;
+  float pdf;
+  vec3 wi;
+  bool delta;
+  vec3 q;
+  bool at_infinity;
+  vec3 nl;
+  bool area;
+};
+
+// Index of the light picked by u: the largest i < n with light_cdf[i] <= u (binary search of
+// docs/path-spec.md sections 2 and 6 over the n + 1 cdf entries).
+uint light_select(float u, uint n) {
+  uint lo = 0u, hi = n;
+  while (hi - lo > 1u) {
+    uint mid = (lo + hi) / 2u;
+    if (light_cdf[mid] <= u) lo = mid; else hi = mid;
+  }
+  return lo;
+}
+
+// Emitted radiance of area light li leaving its surface with normal n towards w (pbrt-v4
+// DiffuseAreaLight::L): L on the front side or when two-sided, else 0.
+vec3 area_le(uint li, vec3 n, vec3 w) {
+  if ((lights[li].flags & LIGHT_FLAG_TWOSIDED) != 0u || dot(n, w) > 0.0) return lights[li].L.rgb;
+  return vec3(0.0);
+}
+
+// 1 - cos(theta_max) of the cone subtended by a sphere of squared radius r2 seen from squared
+// distance d2 > r2 (pbrt-v4 6.2.4 Sphere::Sample and PDF; docs/path-spec.md section 6).
+float sphere_one_minus_cos_max(float r2, float d2, out float sin2_max) {
+  sin2_max = r2 / d2;
+  float one_minus = 1.0 - safe_sqrt(1.0 - sin2_max);
+  return sin2_max < SPHERE_SMALL_SIN2 ? sin2_max / 2.0 : one_minus;
+}
+
+// Whether sphere-light sampling from shading point p (geometric normal ng; 0 for a point in
+// space) takes the inside (area-sampling) branch. DEVIATION from docs/path-spec.md section 6,
+// shared with the CPU reference (host/cpu/lights.cpp) and reported to the lead: the spec
+// tests |p - c|^2 <= r^2, which for a shading point on the light sphere itself is decided by
+// rounding, and the cone branch then degenerates. pbrt-v4 Sphere::Sample/PDF test
+// ctx.OffsetRayOrigin(pCenter) instead: here offset_ray(p) towards the centre with the
+// continuation rule of section 5. With ng = 0 this is the spec's test.
+bool sphere_ref_inside(vec3 p, vec3 ng, vec3 c, float r2) {
+  vec3 po = offset_ray(p, dot(c - p, ng) > 0.0 ? ng : -ng);
+  vec3 pc = po - c;
+  return dot(pc, pc) <= r2;
+}
+
+// Solid-angle pdf of area-sampling point q (normal nl) of a surface of the given area from p,
+// with unit direction wi from p to q: |q - p|^2 / (|cos| area), 0 if the cosine is 0 or
+// the pdf overflows.
+float area_to_solid_angle(vec3 p, vec3 q, vec3 nl, vec3 wi, float area) {
+  vec3 pq = q - p;
+  float denom = abs(dot(nl, -wi)) * area;
+  float pdf = denom > 0.0 ? dot(pq, pq) / denom : 0.0;
+  return pdf <= FLT_MAX ? pdf : 0.0;  // an overflow to infinity counts as no sample
+}
+
+// Samples light li from shading point p (geometric normal ng, or 0 for a point in space) with
+// u = (u0, u1) (docs/path-spec.md section 6; ng only decides a sphere light's inside test).
+// pdf = 0 means no sample.
+LightSample light_sample(uint li, vec3 p, vec3 ng, vec2 u) {
+  LightSample ls;
+  ls.Li = vec3(0.0);
+  ls.pdf = 0.0;
+  ls.wi = vec3(0.0, 0.0, 1.0);
+  ls.delta = false;
+  ls.q = p;
+  ls.at_infinity = false;
+  ls.nl = vec3(0.0, 0.0, 1.0);
+  ls.area = false;
+  uint type = lights[li].type;
+  vec3 L = lights[li].L.rgb;
+  switch (type) {
+    case LIGHT_POINT:
+    case LIGHT_SPOT:
+      if ((type == LIGHT_POINT && (FEATURES & FEATURE_LIGHT_POINT) != 0u) ||
+          (type == LIGHT_SPOT && (FEATURES & FEATURE_LIGHT_SPOT) != 0u)) {
+        vec3 pos = lights[li].pos.xyz;
+        vec3 dp = pos - p;
+        float d2 = dot(dp, dp);
+        if (d2 > 0.0) {
+          ls.wi = dp / sqrt(d2);
+          ls.Li = L / d2;
+          if (type == LIGHT_SPOT) {
+            vec4 prm = lights[li].params;  // cos(falloff start), cos(falloff end)
+            ls.Li *= smooth_step(dot(-ls.wi, lights[li].dir.xyz), prm.y, prm.x);
+          }
+          ls.pdf = 1.0;
+          ls.delta = true;
+          ls.q = pos;
+        }
+      }
+      break;
+    case LIGHT_DISTANT:
+      if ((FEATURES & FEATURE_LIGHT_DISTANT) != 0u) {
+        ls.wi = lights[li].dir.xyz;
+        ls.Li = L;
+        ls.pdf = 1.0;
+        ls.delta = true;
+        ls.at_infinity = true;
+      }
+      break;
+    case LIGHT_INFINITE_UNIFORM:
+      if ((FEATURES & FEATURE_LIGHT_INFINITE) != 0u) {
+        ls.wi = uniform_sphere(u);
+        ls.Li = L;
+        ls.pdf = 1.0 / (4.0 * PI);
+        ls.at_infinity = true;
+      }
+      break;
+    case LIGHT_AREA_TRIANGLE:
+      if ((FEATURES & FEATURE_LIGHT_AREA) != 0u && (FEATURES & FEATURE_TRIANGLES) != 0u) {
+        vec3 ns_unused;
+        triangle_geometry(lights[li].prim, uniform_triangle(u), ls.q, ls.nl, ns_unused);
+        vec3 dq = ls.q - p;
+        if (dot(dq, dq) > 0.0) {
+          ls.wi = safe_normalize(dq);
+          ls.pdf = area_to_solid_angle(p, ls.q, ls.nl, ls.wi, lights[li].params.x);
+          ls.Li = area_le(li, ls.nl, -ls.wi);
+          ls.area = true;
+        }
+      }
+      break;
+    case LIGHT_AREA_SPHERE:
+      if ((FEATURES & FEATURE_LIGHT_AREA) != 0u && (FEATURES & FEATURE_SPHERES) != 0u) {
+        uint sph = lights[li].prim;
+        vec4 cr = spheres[sph].center_radius;
+        vec3 c = cr.xyz;
+        float r = cr.w;
+        vec3 pc = p - c;
+        float d2 = dot(pc, pc);
+        float r2 = r * r;
+        if (!(r > 0.0)) break;
+        vec3 nq;
+        bool inside = sphere_ref_inside(p, ng, c, r2);
+        if (inside) {
+          // Inside: uniform area sampling (pbrt-v4 Sphere::Sample(u)).
+          nq = uniform_sphere(u);
+        } else {
+          // Outside: uniform cone sampling (pbrt-v4 6.2.4 Sphere::Sample(ctx, u)).
+          float sin2_max;
+          float one_minus = sphere_one_minus_cos_max(r2, d2, sin2_max);
+          float cos_max = safe_sqrt(1.0 - sin2_max);
+          float cos_t = (cos_max - 1.0) * u.x + 1.0;
+          float sin2_t = 1.0 - cos_t * cos_t;
+          if (sin2_max < SPHERE_SMALL_SIN2) {
+            sin2_t = sin2_max * u.x;
+            cos_t = sqrt(1.0 - sin2_t);
+          }
+          float cos_a = sin2_t / sqrt(sin2_max) + cos_t * safe_sqrt(1.0 - sin2_t / sin2_max);
+          float sin_a = safe_sqrt(1.0 - cos_a * cos_a);
+          float phi = 2.0 * PI * u.y;
+          vec3 w = vec3(sin_a * cos(phi), sin_a * sin(phi), cos_a);
+          vec3 z = safe_normalize(c - p);
+          vec3 t1, t2;
+          duff_frame(z, t1, t2);
+          nq = -(w.x * t1 + w.y * t2 + w.z * z);
+          ls.pdf = one_minus > 0.0 ? 1.0 / (2.0 * PI * one_minus) : 0.0;
+        }
+        ls.q = c + r * nq;
+        ls.nl = sphere_normal(sph, nq);
+        vec3 dq = ls.q - p;
+        if (dot(dq, dq) > 0.0) {
+          ls.wi = safe_normalize(dq);
+          if (inside) ls.pdf = area_to_solid_angle(p, ls.q, ls.nl, ls.wi, 4.0 * PI * r * r);
+          ls.Li = area_le(li, ls.nl, -ls.wi);
+          ls.area = true;
+        } else {
+          ls.pdf = 0.0;
+        }
+      }
+      break;
+    default:
+      break;
+  }
+  return ls;
+}
+
+// Solid-angle pdf with which light_sample of area light li, called at p_prev (geometric
+// normal ng_prev), would produce the point q (normal nl) that a ray from p_prev in unit
+// direction wi hit (MIS weight of an emitting hit, docs/path-spec.md section 7; pbrt-v4
+// PDF_Li). Not multiplied by the pmf.
+float light_pdf(uint li, vec3 p_prev, vec3 ng_prev, vec3 q, vec3 nl, vec3 wi) {
+  uint type = lights[li].type;
+  if (type == LIGHT_AREA_TRIANGLE && (FEATURES & FEATURE_TRIANGLES) != 0u) {
+    return area_to_solid_angle(p_prev, q, nl, wi, lights[li].params.x);
+  }
+  if (type == LIGHT_AREA_SPHERE && (FEATURES & FEATURE_SPHERES) != 0u) {
+    vec4 cr = spheres[lights[li].prim].center_radius;
+    vec3 pc = p_prev - cr.xyz;
+    float d2 = dot(pc, pc);
+    float r2 = cr.w * cr.w;
+    if (sphere_ref_inside(p_prev, ng_prev, cr.xyz, r2))
+      return area_to_solid_angle(p_prev, q, nl, wi, 4.0 * PI * cr.w * cr.w);
+    float sin2_max;
+    float one_minus = sphere_one_minus_cos_max(r2, d2, sin2_max);
+    return one_minus > 0.0 ? 1.0 / (2.0 * PI * one_minus) : 0.0;
+  }
+  return 0.0;
+}
+
+// Shadow ray from shading point p (geometric normal ng) towards a light sample
+// (docs/path-spec.md section 5): to infinity along wi, else to q (offset off the light's
+// surface for area lights) with tmax = 1 - 1e-4 on the unnormalised direction.
+Ray shadow_ray(vec3 p, vec3 ng, LightSample ls) {
+  vec3 o = offset_ray(p, dot(ls.wi, ng) > 0.0 ? ng : -ng);
+  if (ls.at_infinity) return Ray(o, FLT_MAX, ls.wi);
+  vec3 target = ls.q;
+  if (ls.area) target = offset_ray(ls.q, dot(o - ls.q, ls.nl) > 0.0 ? ls.nl : -ls.nl);
+  return Ray(o, 1.0 - 1e-4, target - o);
+}
+
+#endif

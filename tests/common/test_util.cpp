@@ -1,0 +1,100 @@
+// Test helpers shared by the CPU and GPU test executables.
+#include "common/test_util.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <memory>
+
+#include "cpu/probe.h"
+#include "cpu/render.h"
+#include "image/image_io.h"
+#include "vk/gpu_renderer.h"
+
+namespace basalt::test {
+
+std::string side_name(Side side) { return side == Side::Cpu ? "cpu" : "gpu"; }
+
+std::string source_path(const std::string& relative) {
+  return std::string(BASALT_SOURCE_DIR) + "/" + relative;
+}
+
+vkx::Context& gpu_context() {
+  static std::unique_ptr<vkx::Context> ctx;
+  if (!ctx) {
+    const char* dev = std::getenv("BASALT_TEST_DEVICE");
+    ctx = std::make_unique<vkx::Context>(dev ? dev : "lavapipe",
+                                         vkx::Context::validation_requested());
+  }
+  return *ctx;
+}
+
+SceneTables tables_from_string(const std::string& text) {
+  return build_tables(load_scene_from_string(text, "test.pbrt", source_path("scenes")));
+}
+
+SceneTables tables_from_file(const std::string& path, int width, int height) {
+  Scene scene = load_scene(path);
+  if (width > 0) scene.film.xres = width;
+  if (height > 0) scene.film.yres = height;
+  return build_tables(scene);
+}
+
+void set_seed(SceneTables& tables, std::uint32_t seed) { tables.globals.image.w = seed; }
+
+std::vector<glm::vec3> render(Side side, const SceneTables& tables, std::uint32_t spp) {
+  std::vector<glm::vec4> accum;
+  if (side == Side::Cpu) {
+    accum.assign(std::size_t(tables.width()) * tables.height(), glm::vec4(0.0f));
+    cpu::render(tables, 0, spp, accum);
+  } else {
+    auto& ctx = gpu_context();
+    const std::size_t before = ctx.validation_errors();
+    vkx::GpuRenderer gpu(ctx, tables);
+    gpu.render(0, spp);
+    accum = gpu.accum();
+    EXPECT_EQ(ctx.validation_errors(), before) << "Vulkan validation errors";
+  }
+  return resolve(accum, int(tables.width()), int(tables.height())).pixels;
+}
+
+std::vector<gpu::ProbeOut> probe(Side side, const SceneTables& tables,
+                                 const std::vector<gpu::ProbeIn>& queries) {
+  if (side == Side::Cpu) return cpu::probe(tables, queries);
+  auto& ctx = gpu_context();
+  const std::size_t before = ctx.validation_errors();
+  vkx::GpuRenderer gpu(ctx, tables);
+  auto out = gpu.probe(queries);
+  EXPECT_EQ(ctx.validation_errors(), before) << "Vulkan validation errors";
+  return out;
+}
+
+double agreeing_fraction(const std::vector<glm::vec3>& a, const std::vector<glm::vec3>& b,
+                         float rel) {
+  if (a.size() != b.size() || a.empty()) return 0.0;
+  std::size_t ok = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    bool agree = true;
+    for (int c = 0; c < 3; ++c) {
+      float x = a[i][c], y = b[i][c];
+      agree &= std::abs(x - y) <= rel * std::max(std::abs(x), std::abs(y)) + 1e-6f;
+    }
+    ok += agree;
+  }
+  return double(ok) / double(a.size());
+}
+
+bool all_finite(const std::vector<glm::vec3>& img) {
+  for (const auto& p : img)
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) return false;
+  return true;
+}
+
+double mean(const std::vector<glm::vec3>& img) {
+  double s = 0.0;
+  for (const auto& p : img) s += double(p.x) + p.y + p.z;
+  return img.empty() ? 0.0 : s / (3.0 * img.size());
+}
+
+}  // namespace basalt::test

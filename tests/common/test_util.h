@@ -1,0 +1,48 @@
+// Test helpers shared by the CPU and GPU test executables: scene loading, rendering on
+// either side, and statistics over images.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "scene/scene.h"
+#include "scene/tables.h"
+#include "vk/context.h"
+
+namespace basalt::test {
+
+enum class Side { Cpu, Gpu };
+/// "cpu" or "gpu", for test names.
+std::string side_name(Side side);
+
+/// Path of a file in the source tree.
+std::string source_path(const std::string& relative);
+/// \brief The process-wide Vulkan context for GPU tests (device from BASALT_TEST_DEVICE,
+///        default "lavapipe"; validation when BASALT_VALIDATION=1).
+vkx::Context& gpu_context();
+
+/// \brief Parses scene text and builds its tables.
+SceneTables tables_from_string(const std::string& text);
+/// \brief Parses a scene file, optionally overriding resolution (0 keeps the scene's).
+SceneTables tables_from_file(const std::string& path, int width = 0, int height = 0);
+/// \brief Replaces the seed of built tables.
+void set_seed(SceneTables& tables, std::uint32_t seed);
+
+/// \brief Renders samples [0, spp) and returns per-pixel radiance (accum resolved).
+///        GPU renders assert that the validation layer stayed silent.
+std::vector<glm::vec3> render(Side side, const SceneTables& tables, std::uint32_t spp);
+/// \brief Answers probe queries on either side.
+std::vector<gpu::ProbeOut> probe(Side side, const SceneTables& tables,
+                                 const std::vector<gpu::ProbeIn>& queries);
+
+/// Fraction of pixels whose every channel agrees within \p rel relative (plus 1e-6 absolute).
+double agreeing_fraction(const std::vector<glm::vec3>& a, const std::vector<glm::vec3>& b,
+                         float rel);
+/// True if every channel of every pixel is finite.
+bool all_finite(const std::vector<glm::vec3>& img);
+/// Mean over pixels and channels.
+double mean(const std::vector<glm::vec3>& img);
+
+}  // namespace basalt::test

@@ -1,0 +1,804 @@
+// pbrt-v4 scene parser: every supported directive checked numerically, and every class of bad
+// input checked for its exact file:line:column.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <glm/gtc/matrix_transform.hpp>
+#include <string>
+
+#include "scene/scene.h"
+#include "scene/tokenizer.h"
+
+namespace fs = std::filesystem;
+using basalt::load_scene;
+using basalt::load_scene_from_string;
+using basalt::Scene;
+using basalt::SceneError;
+
+namespace {
+
+// Parses text as file "t.pbrt".
+Scene parse(const std::string& text, const std::string& base_dir = ".") {
+  return load_scene_from_string(text, "t.pbrt", base_dir);
+}
+
+// The what() of the SceneError that parsing text throws ("" if it parses).
+std::string error_of(const std::string& text, const std::string& base_dir = ".") {
+  try {
+    parse(text, base_dir);
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// A fresh empty directory under the test temp dir.
+fs::path temp_dir(const std::string& name) {
+  fs::path d = fs::path(::testing::TempDir()) / ("basalt_parser_" + name);
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+// Writes text to path.
+void write_file(const fs::path& path, const std::string& text) {
+  fs::create_directories(path.parent_path());
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+// Expects two matrices equal to within eps, element by element.
+void expect_mat_near(const glm::mat4& a, const glm::mat4& b, float eps = 1e-5f) {
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r)
+      EXPECT_NEAR(a[c][r], b[c][r], eps) << "column " << c << " row " << r;
+}
+
+void expect_vec_near(glm::vec3 a, glm::vec3 b, float eps = 1e-5f) {
+  EXPECT_NEAR(a.x, b.x, eps);
+  EXPECT_NEAR(a.y, b.y, eps);
+  EXPECT_NEAR(a.z, b.z, eps);
+}
+
+// True if some warning equals w.
+bool has_warning(const Scene& s, const std::string& w) {
+  for (const std::string& x : s.warnings)
+    if (x == w) return true;
+  return false;
+}
+
+const char* kSphere = "WorldBegin\nShape \"sphere\"\n";
+
+}  // namespace
+
+// ---- tokenizer ---------------------------------------------------------------------------
+
+TEST(ParserTokenizer, KindsAndLocations) {
+  basalt::Tokenizer tok("# comment\n  Shape \"a \\\"q\\\"\"\t[ -1.5e2 +3 .5 ]# c\ntrue", "f");
+  using K = basalt::Token::Kind;
+  auto t = tok.next();
+  ASSERT_TRUE(t);
+  EXPECT_EQ(t->kind, K::Word);
+  EXPECT_EQ(t->text, "Shape");
+  EXPECT_EQ(t->loc.str(), "f:2:3");
+  t = tok.next();
+  EXPECT_EQ(t->kind, K::String);
+  EXPECT_EQ(t->text, "a \"q\"");
+  EXPECT_EQ(t->loc.str(), "f:2:9");
+  t = tok.next();
+  EXPECT_EQ(t->kind, K::LBracket);
+  EXPECT_EQ(t->loc.str(), "f:2:19");
+  t = tok.next();
+  EXPECT_EQ(t->kind, K::Number);
+  EXPECT_EQ(t->number, -150.0);
+  EXPECT_FALSE(t->is_integer_literal());
+  t = tok.next();
+  EXPECT_EQ(t->number, 3.0);
+  EXPECT_TRUE(t->is_integer_literal());
+  t = tok.next();
+  EXPECT_EQ(t->number, 0.5);
+  EXPECT_EQ(tok.next()->kind, K::RBracket);
+  t = tok.next();
+  EXPECT_EQ(t->kind, K::Word);
+  EXPECT_EQ(t->text, "true");
+  EXPECT_EQ(t->loc.str(), "f:3:1");
+  EXPECT_FALSE(tok.next());
+}
+
+// ---- defaults ------------------------------------------------------------------------------
+
+TEST(Parser, DefaultsFollowPbrtV4) {
+  Scene s = parse(kSphere);
+  EXPECT_EQ(s.camera.fov_deg, 90.0f);
+  EXPECT_EQ(s.camera.lens_radius, 0.0f);
+  EXPECT_EQ(s.camera.focal_distance, 1e6f);
+  EXPECT_FALSE(s.camera.screen_window.has_value());
+  expect_mat_near(s.camera.world_from_camera, glm::mat4(1.0f));
+  EXPECT_EQ(s.film.xres, 1280);
+  EXPECT_EQ(s.film.yres, 720);
+  EXPECT_EQ(s.film.filename, "pbrt.exr");
+  EXPECT_EQ(s.sampler.spp, 16);
+  EXPECT_EQ(s.sampler.seed, 0);
+  EXPECT_EQ(s.filter.type, basalt::Filter::Type::Gaussian);
+  EXPECT_EQ(s.filter.radius, glm::vec2(1.5f));
+  EXPECT_EQ(s.filter.sigma, 0.5f);
+  EXPECT_EQ(s.integrator.max_depth, 5);
+  EXPECT_FALSE(s.integrator.regularize);
+  ASSERT_EQ(s.shapes.size(), 1u);
+  const basalt::Shape& sh = s.shapes[0];
+  EXPECT_EQ(sh.kind, basalt::Shape::Kind::Sphere);
+  EXPECT_EQ(sh.radius, 1.0f);
+  EXPECT_FALSE(sh.reverse_orientation);
+  EXPECT_FALSE(sh.area_light.has_value());
+  EXPECT_EQ(sh.loc.str(), "t.pbrt:2:1");
+  // pbrt-v4's default material: diffuse, reflectance 0.5.
+  ASSERT_GE(sh.material, 0);
+  const basalt::Material& m = s.materials[sh.material];
+  EXPECT_EQ(m.type, "diffuse");
+  EXPECT_EQ(m.params.at("reflectance").value, (std::vector<float>{0.5f, 0.5f, 0.5f}));
+  EXPECT_TRUE(s.warnings.empty());
+}
+
+// ---- camera and options ---------------------------------------------------------------------
+
+TEST(Parser, LookAtMatchesPbrtDefinition) {
+  Scene s = parse(
+      "LookAt 1 2 3  4 6 3  0 0 1\n"
+      "Camera \"perspective\" \"float fov\" 45 \"float lensradius\" 0.1 "
+      "\"float focaldistance\" 7\n" +
+      std::string(kSphere));
+  // pbrt-v4 LookAt: worldFromCamera columns (right, up', dir, eye).
+  glm::vec3 eye(1, 2, 3), look(4, 6, 3), up(0, 0, 1);
+  glm::vec3 dir = glm::normalize(look - eye);
+  glm::vec3 right = glm::normalize(glm::cross(glm::normalize(up), dir));
+  glm::vec3 up2 = glm::cross(dir, right);
+  glm::mat4 expected(glm::vec4(right, 0), glm::vec4(up2, 0), glm::vec4(dir, 0), glm::vec4(eye, 1));
+  expect_mat_near(s.camera.world_from_camera, expected);
+  // dir = (0.6, 0.8, 0): right = up x dir = (-0.8, 0.6, 0) (left-handed camera space).
+  expect_vec_near(right, glm::vec3(-0.8f, 0.6f, 0.0f));
+  EXPECT_EQ(s.camera.fov_deg, 45.0f);
+  EXPECT_FLOAT_EQ(s.camera.lens_radius, 0.1f);
+  EXPECT_EQ(s.camera.focal_distance, 7.0f);
+  EXPECT_EQ(s.camera.loc.str(), "t.pbrt:2:1");
+}
+
+TEST(Parser, CameraIsInverseOfCtmAndNamesCameraSpace) {
+  Scene s = parse(
+      "Scale -1 1 1\nTranslate 0 0 5\nCamera \"perspective\"\n"
+      "WorldBegin\nCoordSysTransform \"camera\"\nShape \"sphere\"\n");
+  glm::mat4 ctm = glm::scale(glm::mat4(1), glm::vec3(-1, 1, 1)) *
+                  glm::translate(glm::mat4(1), glm::vec3(0, 0, 5));
+  expect_mat_near(s.camera.world_from_camera, glm::inverse(ctm));
+  // A shape in camera space sits at the camera: the CTM became worldFromCamera.
+  expect_mat_near(s.shapes[0].world_from_object, glm::inverse(ctm));
+}
+
+TEST(Parser, ScreenWindowAndFrameAspectRatio) {
+  Scene s = parse("Camera \"perspective\" \"float screenwindow\" [-1 1 -0.5 0.5]\n" +
+                  std::string(kSphere));
+  ASSERT_TRUE(s.camera.screen_window);
+  EXPECT_EQ(*s.camera.screen_window, glm::vec4(-1, 1, -0.5f, 0.5f));
+  s = parse("Camera \"perspective\" \"float frameaspectratio\" 2\n" + std::string(kSphere));
+  ASSERT_TRUE(s.camera.screen_window);
+  EXPECT_EQ(*s.camera.screen_window, glm::vec4(-2, 2, -1, 1));
+  s = parse("Camera \"perspective\" \"float frameaspectratio\" 0.5\n" + std::string(kSphere));
+  EXPECT_EQ(*s.camera.screen_window, glm::vec4(-1, 1, -2, 2));
+}
+
+TEST(Parser, FilmSamplerFilterIntegrator) {
+  Scene s = parse(
+      "Film \"rgb\" \"integer xresolution\" [ 320 ] \"integer yresolution\" 200 "
+      "\"string filename\" \"out.exr\"\n"
+      "Sampler \"independent\" \"integer pixelsamples\" 64 \"integer seed\" 7\n"
+      "PixelFilter \"box\"\n"
+      "Integrator \"path\" \"integer maxdepth\" 9 \"bool regularize\" true\n" +
+      std::string(kSphere));
+  EXPECT_EQ(s.film.xres, 320);
+  EXPECT_EQ(s.film.yres, 200);
+  EXPECT_EQ(s.film.filename, "out.exr");
+  EXPECT_EQ(s.film.loc.str(), "t.pbrt:1:1");
+  EXPECT_EQ(s.sampler.spp, 64);
+  EXPECT_EQ(s.sampler.seed, 7);
+  EXPECT_EQ(s.filter.type, basalt::Filter::Type::Box);
+  EXPECT_EQ(s.filter.radius, glm::vec2(0.5f));
+  EXPECT_EQ(s.integrator.max_depth, 9);
+  EXPECT_TRUE(s.integrator.regularize);
+  EXPECT_TRUE(s.warnings.empty());
+
+  s = parse(
+      "PixelFilter \"gaussian\" \"float xradius\" 2 \"float sigma\" 0.25\n"
+      "Integrator \"path\" \"bool regularize\" \"false\"\n" +
+      std::string(kSphere));
+  EXPECT_EQ(s.filter.type, basalt::Filter::Type::Gaussian);
+  EXPECT_EQ(s.filter.radius, glm::vec2(2.0f, 1.5f));
+  EXPECT_EQ(s.filter.sigma, 0.25f);
+  EXPECT_FALSE(s.integrator.regularize);
+}
+
+TEST(Parser, AcceptedWithWarnings) {
+  Scene s = parse(
+      "Film \"gbuffer\"\nSampler \"halton\" \"integer pixelsamples\" 8\n"
+      "Integrator \"volpath\"\n" +
+      std::string(kSphere));
+  EXPECT_EQ(s.sampler.spp, 8);
+  EXPECT_TRUE(has_warning(s, "t.pbrt:1:1: warning: Film 'gbuffer' is rendered as Film 'rgb'"));
+  EXPECT_TRUE(has_warning(s,
+                          "t.pbrt:2:1: warning: Sampler 'halton': basalt uses its own "
+                          "counter-based sampler; only the sample count and seed are used"));
+  EXPECT_TRUE(has_warning(s,
+                          "t.pbrt:3:1: warning: Integrator 'volpath' is rendered as 'path' "
+                          "(basalt has no participating media)"));
+  // pbrt-v4 StratifiedSampler: xsamples * ysamples per pixel.
+  s = parse("Sampler \"stratified\" \"integer xsamples\" 3 \"integer ysamples\" 5\n" +
+            std::string(kSphere));
+  EXPECT_EQ(s.sampler.spp, 15);
+}
+
+TEST(Parser, OptionSeedIsTheDefaultSamplerSeed) {
+  Scene s = parse("Option \"integer seed\" 42\n" + std::string(kSphere));
+  EXPECT_EQ(s.sampler.seed, 42);
+  s = parse("Option \"seed\" 42\nSampler \"zsobol\" \"integer seed\" 3\n" + std::string(kSphere));
+  EXPECT_EQ(s.sampler.seed, 3);
+  s = parse("Option \"bool disablepixeljitter\" true\nOption \"frobnicate\" 1\n" +
+            std::string(kSphere));
+  EXPECT_TRUE(has_warning(s,
+                          "t.pbrt:1:1: warning: Option \"disablepixeljitter\" has no effect "
+                          "in basalt"));
+  EXPECT_TRUE(has_warning(s, "t.pbrt:2:1: warning: unknown Option \"frobnicate\" ignored"));
+}
+
+TEST(Parser, UnusedParametersWarnWithLocation) {
+  Scene s = parse(
+      "Film \"rgb\" \"bool savefp16\" false\n"
+      "   \"float iso\" 400 \"float diagonal\" 35\n"
+      "Camera \"perspective\" \"float shutterclose\" 1\n"
+      "WorldBegin\nShape \"sphere\" \"float alpha\" 0.5\n");
+  const char* suffix = " (not supported by basalt; ignored)";
+  EXPECT_TRUE(has_warning(s, std::string("t.pbrt:1:12: warning: unused parameter \"bool savefp16\" "
+                                         "for Film 'rgb'") +
+                                 suffix));
+  EXPECT_TRUE(has_warning(s, std::string("t.pbrt:2:4: warning: unused parameter \"float iso\" for "
+                                         "Film 'rgb'") +
+                                 suffix));
+  EXPECT_TRUE(has_warning(s, std::string("t.pbrt:2:20: warning: unused parameter \"float "
+                                         "diagonal\" for Film 'rgb'") +
+                                 suffix));
+  EXPECT_TRUE(has_warning(s, std::string("t.pbrt:3:22: warning: unused parameter \"float "
+                                         "shutterclose\" for Camera 'perspective'") +
+                                 suffix));
+  EXPECT_TRUE(has_warning(s, std::string("t.pbrt:5:16: warning: unused parameter \"float alpha\" "
+                                         "for Shape 'sphere'") +
+                                 suffix));
+  EXPECT_EQ(s.warnings.size(), 5u);
+}
+
+TEST(Parser, LaterParameterWinsAndShadowsQuietly) {
+  Scene s =
+      parse("Camera \"perspective\" \"float fov\" 30 \"float fov\" 60\n" + std::string(kSphere));
+  EXPECT_EQ(s.camera.fov_deg, 60.0f);
+  EXPECT_TRUE(s.warnings.empty());
+}
+
+// ---- transformations -----------------------------------------------------------------------
+
+TEST(Parser, TransformDirectives) {
+  Scene s = parse(
+      "WorldBegin\n"
+      "AttributeBegin Translate 1 2 3 Shape \"sphere\" AttributeEnd\n"
+      "AttributeBegin Scale 2 3 4 Shape \"sphere\" AttributeEnd\n"
+      "AttributeBegin Rotate 30 1 1 0 Shape \"sphere\" AttributeEnd\n"
+      // pbrt writes Transform column by column: the last four numbers are the translation.
+      "AttributeBegin Translate 9 9 9 Transform [1 0 0 0  0 2 0 0  0 0 1 0  5 6 7 1] "
+      "Shape \"sphere\" AttributeEnd\n"
+      "AttributeBegin Translate 1 0 0 ConcatTransform [0 1 0 0  -1 0 0 0  0 0 1 0  0 0 0 1] "
+      "Shape \"sphere\" AttributeEnd\n"
+      "AttributeBegin Translate 1 0 0 Identity Shape \"sphere\" AttributeEnd\n");
+  ASSERT_EQ(s.shapes.size(), 6u);
+  expect_mat_near(s.shapes[0].world_from_object, glm::translate(glm::mat4(1), glm::vec3(1, 2, 3)));
+  expect_mat_near(s.shapes[1].world_from_object, glm::scale(glm::mat4(1), glm::vec3(2, 3, 4)));
+  // pbrt-v4 Rotate is the right-handed rotation glm::rotate also builds.
+  expect_mat_near(s.shapes[2].world_from_object, glm::rotate(glm::mat4(1), glm::radians(30.0f),
+                                                             glm::normalize(glm::vec3(1, 1, 0))));
+  glm::mat4 t(1.0f);
+  t[1][1] = 2;
+  t[3] = glm::vec4(5, 6, 7, 1);
+  expect_mat_near(s.shapes[3].world_from_object, t);
+  // ConcatTransform post-multiplies: world = T(1,0,0) * Rz(90).
+  glm::mat4 c = glm::translate(glm::mat4(1), glm::vec3(1, 0, 0)) *
+                glm::rotate(glm::mat4(1), glm::radians(90.0f), glm::vec3(0, 0, 1));
+  expect_mat_near(s.shapes[4].world_from_object, c);
+  expect_mat_near(s.shapes[5].world_from_object, glm::mat4(1.0f));
+}
+
+TEST(Parser, WorldBeginResetsCtmAndCoordinateSystems) {
+  Scene s = parse(
+      "Translate 5 0 0\nCoordinateSystem \"shifted\"\nWorldBegin\n"
+      "Translate 0 1 0\nCoordinateSystem \"up\"\nShape \"sphere\"\n"
+      "CoordSysTransform \"shifted\"\nShape \"sphere\"\n"
+      "CoordSysTransform \"world\"\nShape \"sphere\"\n"
+      "CoordSysTransform \"up\"\nShape \"sphere\"\n"
+      "CoordSysTransform \"nowhere\"\nShape \"sphere\"\n");
+  expect_mat_near(s.shapes[0].world_from_object, glm::translate(glm::mat4(1), glm::vec3(0, 1, 0)));
+  expect_mat_near(s.shapes[1].world_from_object, glm::translate(glm::mat4(1), glm::vec3(5, 0, 0)));
+  expect_mat_near(s.shapes[2].world_from_object, glm::mat4(1));
+  expect_mat_near(s.shapes[3].world_from_object, glm::translate(glm::mat4(1), glm::vec3(0, 1, 0)));
+  expect_mat_near(s.shapes[4].world_from_object, glm::translate(glm::mat4(1), glm::vec3(0, 1, 0)));
+  EXPECT_TRUE(has_warning(s,
+                          "t.pbrt:13:1: warning: unknown coordinate system \"nowhere\"; "
+                          "CoordSysTransform ignored"));
+}
+
+TEST(Parser, AttributeScopeRestoresState) {
+  Scene s = parse(
+      "WorldBegin\n"
+      "Material \"diffuse\" \"rgb reflectance\" [0.1 0.2 0.3]\n"
+      "AttributeBegin\n"
+      "  Translate 1 0 0\n  ReverseOrientation\n"
+      "  Material \"diffuse\" \"rgb reflectance\" [0.9 0.9 0.9]\n"
+      "  AreaLightSource \"diffuse\" \"rgb L\" [1 2 3] \"float scale\" 2 \"bool twosided\" true\n"
+      "  Shape \"sphere\" \"float radius\" 0.5\n"
+      "AttributeEnd\n"
+      "Shape \"sphere\"\n"
+      "TransformBegin\n  Translate 0 3 0\n  ReverseOrientation\nTransformEnd\n"
+      "Shape \"sphere\"\n");
+  ASSERT_EQ(s.shapes.size(), 3u);
+  const basalt::Shape &in = s.shapes[0], &out = s.shapes[1];
+  expect_mat_near(in.world_from_object, glm::translate(glm::mat4(1), glm::vec3(1, 0, 0)));
+  EXPECT_TRUE(in.reverse_orientation);
+  ASSERT_TRUE(in.area_light);
+  EXPECT_EQ(in.area_light->L, glm::vec3(2, 4, 6));
+  EXPECT_TRUE(in.area_light->twosided);
+  EXPECT_EQ(in.radius, 0.5f);
+  EXPECT_EQ(s.materials[in.material].params.at("reflectance").value,
+            (std::vector<float>{0.9f, 0.9f, 0.9f}));
+  expect_mat_near(out.world_from_object, glm::mat4(1));
+  EXPECT_FALSE(out.reverse_orientation);
+  EXPECT_FALSE(out.area_light);
+  EXPECT_EQ(s.materials[out.material].params.at("reflectance").value,
+            (std::vector<float>{0.1f, 0.2f, 0.3f}));
+  // TransformBegin/End: deprecated in pbrt-v4 and handled as AttributeBegin/End.
+  expect_mat_near(s.shapes[2].world_from_object, glm::mat4(1));
+  EXPECT_FALSE(s.shapes[2].reverse_orientation);
+  EXPECT_TRUE(has_warning(s,
+                          "t.pbrt:11:1: warning: TransformBegin/TransformEnd are deprecated; "
+                          "treated as AttributeBegin/End"));
+}
+
+// ---- materials -----------------------------------------------------------------------------
+
+TEST(Parser, NamedMaterials) {
+  Scene s = parse(
+      "WorldBegin\n"
+      "NamedMaterial \"late\"\nShape \"sphere\"\n"  // pbrt-v4 resolves names after parsing
+      "MakeNamedMaterial \"red\" \"string type\" \"diffuse\" \"rgb reflectance\" [0.8 0.1 0.1]\n"
+      "MakeNamedMaterial \"late\" \"string type\" [\"diffuse\"]\n"
+      "NamedMaterial \"red\"\nShape \"sphere\"\n"
+      "AttributeBegin Material \"diffuse\" Shape \"sphere\" AttributeEnd\n"
+      "Shape \"sphere\"\n");
+  ASSERT_EQ(s.shapes.size(), 4u);
+  const basalt::Material& late = s.materials[s.shapes[0].material];
+  EXPECT_EQ(late.name, "late");
+  EXPECT_EQ(late.type, "diffuse");
+  EXPECT_EQ(late.params.at("reflectance").value, (std::vector<float>{0.5f, 0.5f, 0.5f}));
+  const basalt::Material& red = s.materials[s.shapes[1].material];
+  EXPECT_EQ(red.name, "red");
+  EXPECT_EQ(red.params.at("reflectance").value, (std::vector<float>{0.8f, 0.1f, 0.1f}));
+  EXPECT_EQ(red.params.at("reflectance").loc.str(), "t.pbrt:4:49");
+  EXPECT_EQ(s.materials[s.shapes[2].material].name, "");
+  EXPECT_EQ(s.shapes[3].material, s.shapes[1].material);
+  EXPECT_TRUE(s.warnings.empty());
+}
+
+TEST(Parser, ConstantSpectrumIsGrey) {
+  Scene s = parse(
+      "WorldBegin\nMaterial \"diffuse\" \"spectrum reflectance\" [300 0.25 800 0.25]\n"
+      "Shape \"sphere\"\n");
+  EXPECT_EQ(s.materials[s.shapes[0].material].params.at("reflectance").value,
+            (std::vector<float>{0.25f, 0.25f, 0.25f}));
+}
+
+// ---- shapes --------------------------------------------------------------------------------
+
+TEST(Parser, TriangleMesh) {
+  Scene s = parse(
+      "WorldBegin\n"
+      "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0 1 1 0] \"integer indices\" [0 1 2 2 "
+      "1 3]\n"
+      "  \"normal N\" [0 0 1 0 0 1 0 0 1 0 0 1] \"point2 uv\" [0 0 1 0 0 1 1 1]\n"
+      "Shape \"trianglemesh\" \"point P\" [0 0 0 1 0 0 0 1 0]\n");
+  ASSERT_EQ(s.shapes.size(), 2u);
+  const basalt::TriangleMesh& m = s.shapes[0].mesh;
+  EXPECT_EQ(s.shapes[0].kind, basalt::Shape::Kind::Triangles);
+  ASSERT_EQ(m.P.size(), 4u);
+  EXPECT_EQ(m.P[3], glm::vec3(1, 1, 0));
+  EXPECT_EQ(m.indices, (std::vector<unsigned>{0, 1, 2, 2, 1, 3}));
+  ASSERT_EQ(m.N.size(), 4u);
+  EXPECT_EQ(m.N[0], glm::vec3(0, 0, 1));
+  ASSERT_EQ(m.uv.size(), 4u);
+  EXPECT_EQ(m.uv[3], glm::vec2(1, 1));
+  // indices may be left out for exactly three vertices (pbrt-v4 TriangleMesh::Create).
+  EXPECT_EQ(s.shapes[1].mesh.indices, (std::vector<unsigned>{0, 1, 2}));
+  EXPECT_TRUE(s.shapes[1].mesh.N.empty());
+}
+
+// ---- lights --------------------------------------------------------------------------------
+
+TEST(Parser, Lights) {
+  Scene s = parse(
+      "WorldBegin\n"
+      "Translate 1 2 3\n"
+      "LightSource \"point\" \"rgb I\" [1 2 3] \"float scale\" 2 \"point3 from\" [1 0 0]\n"
+      "LightSource \"spot\" \"point3 from\" [0 0 0] \"point3 to\" [0 -1 0] \"float coneangle\" 20\n"
+      "Rotate 90 0 0 1\n"
+      "LightSource \"distant\" \"rgb L\" [3 3 3] \"point3 from\" [1 0 0] \"point3 to\" [0 0 0]\n"
+      "LightSource \"infinite\" \"rgb L\" [0.5 0.6 0.7] \"float scale\" 2\n"
+      "LightSource \"point\"\n");
+  ASSERT_EQ(s.lights.size(), 5u);
+  using K = basalt::Light::Kind;
+  const basalt::Light &point = s.lights[0], &spot = s.lights[1], &dist = s.lights[2],
+                      &inf = s.lights[3], &def = s.lights[4];
+  EXPECT_EQ(point.kind, K::Point);
+  EXPECT_EQ(point.value, glm::vec3(2, 4, 6));
+  expect_vec_near(point.from, glm::vec3(2, 2, 3));  // CTM * from
+  EXPECT_EQ(point.loc.str(), "t.pbrt:3:1");
+  EXPECT_EQ(spot.kind, K::Spot);
+  EXPECT_EQ(spot.value, glm::vec3(1));
+  expect_vec_near(spot.from, glm::vec3(1, 2, 3));
+  expect_vec_near(spot.dir, glm::vec3(0, -1, 0));
+  EXPECT_EQ(spot.cone_angle, 20.0f);
+  EXPECT_EQ(spot.cone_delta, 5.0f);
+  // Distant: direction towards the light, CTM applied to (from - to) = (1,0,0) rotated to +y.
+  EXPECT_EQ(dist.kind, K::Distant);
+  EXPECT_EQ(dist.value, glm::vec3(3));
+  expect_vec_near(dist.dir, glm::vec3(0, 1, 0));
+  EXPECT_EQ(inf.kind, K::Infinite);
+  expect_vec_near(inf.value, glm::vec3(1.0f, 1.2f, 1.4f));
+  expect_vec_near(def.from, glm::vec3(1, 2, 3));
+  EXPECT_EQ(def.value, glm::vec3(1));
+  // A scene with only lights is not empty.
+  EXPECT_TRUE(s.shapes.empty());
+}
+
+TEST(Parser, DistantLightDefaultPointsDownMinusZ) {
+  // from (0,0,0) to (0,0,1): light travels along +z, so the direction towards it is -z.
+  Scene s = parse("WorldBegin\nLightSource \"distant\"\n");
+  expect_vec_near(s.lights[0].dir, glm::vec3(0, 0, -1));
+}
+
+// ---- files ---------------------------------------------------------------------------------
+
+TEST(Parser, IncludeIsRelativeToTheIncludingFile) {
+  fs::path d = temp_dir("include");
+  write_file(d / "main.pbrt",
+             "WorldBegin\nInclude \"sub/geom.pbrt\"\nShape \"sphere\" \"float radius\" 3\n");
+  // geom.pbrt includes a file next to itself, changes the CTM (Include is textual).
+  write_file(d / "sub" / "geom.pbrt", "Include \"more.pbrt\"\nTranslate 0 0 1\n");
+  write_file(d / "sub" / "more.pbrt",
+             "Shape \"sphere\" \"float radius\" 2\n"
+             "Shape \"plymesh\" \"string filename\" \"tri.ply\"\n");
+  write_file(d / "sub" / "tri.ply",
+             "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+             "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+             "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  Scene s = load_scene((d / "main.pbrt").string());
+  ASSERT_EQ(s.shapes.size(), 3u);
+  EXPECT_EQ(s.shapes[0].radius, 2.0f);
+  EXPECT_EQ(s.shapes[0].loc.str(), (d / "sub" / "more.pbrt").string() + ":1:1");
+  EXPECT_EQ(s.shapes[1].mesh.indices.size(), 3u);
+  EXPECT_EQ(s.shapes[2].radius, 3.0f);
+  expect_mat_near(s.shapes[2].world_from_object, glm::translate(glm::mat4(1), glm::vec3(0, 0, 1)));
+}
+
+TEST(Parser, ImportKeepsGraphicsStateChangesInside) {
+  fs::path d = temp_dir("import");
+  write_file(d / "part.pbrt",
+             "Translate 0 0 1\nMaterial \"diffuse\" \"rgb reflectance\" [0.1 0.1 0.1]\n"
+             "Shape \"sphere\"\n");
+  Scene s = parse("WorldBegin\nImport \"part.pbrt\"\nShape \"sphere\"\n", d.string());
+  ASSERT_EQ(s.shapes.size(), 2u);
+  expect_mat_near(s.shapes[0].world_from_object, glm::translate(glm::mat4(1), glm::vec3(0, 0, 1)));
+  expect_mat_near(s.shapes[1].world_from_object, glm::mat4(1));
+  EXPECT_EQ(s.materials[s.shapes[1].material].params.at("reflectance").value[0], 0.5f);
+}
+
+TEST(Parser, FixtureWithEveryDirective) {
+  fs::path p = fs::path(BASALT_SOURCE_DIR) / "tests" / "data" / "parser" / "everything.pbrt";
+  Scene s = load_scene(p.string());
+  EXPECT_TRUE(s.warnings.empty()) << s.warnings[0];
+  EXPECT_EQ(s.sampler.seed, 5);  // from Option "seed"
+  EXPECT_EQ(s.sampler.spp, 4);
+  EXPECT_EQ(s.film.xres, 64);
+  EXPECT_EQ(s.film.yres, 48);
+  EXPECT_EQ(s.film.filename, "everything.exr");
+  EXPECT_EQ(s.filter.type, basalt::Filter::Type::Box);
+  EXPECT_EQ(s.integrator.max_depth, 3);
+  EXPECT_EQ(s.camera.fov_deg, 40.0f);
+  // Scale -1 1 1 before LookAt mirrors camera x: the camera sits at the eye, looks at the
+  // origin, and its +x axis points along world -x.
+  expect_vec_near(glm::vec3(s.camera.world_from_camera * glm::vec4(0, 0, 0, 1)),
+                  glm::vec3(0, 1, -5));
+  expect_vec_near(glm::vec3(s.camera.world_from_camera * glm::vec4(0, 0, 1, 0)),
+                  glm::normalize(glm::vec3(0, -1, 5)));
+  expect_vec_near(glm::vec3(s.camera.world_from_camera * glm::vec4(1, 0, 0, 0)),
+                  glm::vec3(-1, 0, 0));
+
+  ASSERT_EQ(s.lights.size(), 4u);
+  expect_vec_near(s.lights[1].from, glm::vec3(0, 4, 0));
+  expect_vec_near(s.lights[2].dir, glm::vec3(0, -1, 0));
+  EXPECT_EQ(s.lights[2].value, glm::vec3(5));
+  expect_vec_near(s.lights[3].dir, glm::vec3(0, 1, 0));
+
+  ASSERT_EQ(s.shapes.size(), 5u);
+  const basalt::Shape &floor = s.shapes[0], &lamp = s.shapes[1], &red = s.shapes[2],
+                      &imported = s.shapes[3], &last = s.shapes[4];
+  EXPECT_EQ(floor.mesh.indices, (std::vector<unsigned>{0, 3, 2, 0, 2, 1}));
+  EXPECT_EQ(floor.mesh.uv.size(), 4u);
+  EXPECT_EQ(s.materials[floor.material].name, "grey");
+  EXPECT_TRUE(lamp.reverse_orientation);
+  ASSERT_TRUE(lamp.area_light);
+  EXPECT_EQ(lamp.area_light->L, glm::vec3(4));
+  EXPECT_TRUE(lamp.area_light->twosided);
+  expect_mat_near(lamp.world_from_object,
+                  glm::translate(glm::mat4(1), glm::vec3(0, 3, 0)) *
+                      glm::rotate(glm::mat4(1), glm::radians(90.0f), glm::vec3(1, 0, 0)));
+  EXPECT_FALSE(red.reverse_orientation);
+  EXPECT_FALSE(red.area_light);
+  expect_mat_near(red.world_from_object, glm::translate(glm::mat4(1), glm::vec3(1, 0.5f, 0)) *
+                                             glm::scale(glm::mat4(1), glm::vec3(0.5f)));
+  EXPECT_EQ(s.materials[red.material].params.at("reflectance").value,
+            (std::vector<float>{0.7f, 0.2f, 0.2f}));
+  expect_mat_near(imported.world_from_object, glm::translate(glm::mat4(1), glm::vec3(0, 0, -1)));
+  EXPECT_EQ(s.materials[imported.material].params.at("reflectance").value,
+            (std::vector<float>{0.3f, 0.3f, 0.3f}));
+  EXPECT_EQ(imported.mesh.N.size(), 4u);
+  expect_mat_near(last.world_from_object, glm::mat4(1));
+  EXPECT_EQ(s.materials[last.material].name, "grey");
+}
+
+TEST(ParserErrors, RecursiveInclude) {
+  fs::path d = temp_dir("recursive");
+  write_file(d / "self.pbrt", "Include \"self.pbrt\"\n");
+  std::string e = error_of("Include \"self.pbrt\"\n", d.string());
+  EXPECT_EQ(e, (d / "self.pbrt").string() +
+                   ":1:1: error: Include nesting deeper than 64 (recursive Include?)");
+}
+
+TEST(Parser, SceneFilesInTheRepositoryParse) {
+  for (const char* name : {"cornell-box.pbrt", "spheres-lights.pbrt", "igea-infinite.pbrt"}) {
+    fs::path p = fs::path(BASALT_SOURCE_DIR) / "scenes" / name;
+    if (!fs::exists(p)) continue;
+    if (std::string(name) == "igea-infinite.pbrt" && !fs::exists("/work/shared/models/igea.ply"))
+      continue;
+    Scene s = load_scene(p.string());
+    EXPECT_FALSE(s.shapes.empty()) << name;
+    EXPECT_TRUE(s.warnings.empty()) << name << ": " << (s.warnings.empty() ? "" : s.warnings[0]);
+  }
+}
+
+// ---- errors: each with its exact location ----------------------------------------------------
+
+TEST(ParserErrors, UnknownDirective) {
+  EXPECT_EQ(error_of("WorldBegin\n  Shape \"sphere\"\n  Frobnicate 1\n"),
+            "t.pbrt:3:3: error: unknown directive 'Frobnicate'");
+  EXPECT_EQ(error_of("WorldBegin\n\"sphere\"\n"),
+            "t.pbrt:2:1: error: expected a directive, got \"sphere\"");
+}
+
+TEST(ParserErrors, WrongParameterType) {
+  EXPECT_EQ(error_of("Camera \"perspective\" \"string fov\" \"wide\"\n" + std::string(kSphere)),
+            "t.pbrt:1:22: error: parameter \"fov\" has type string; expected float");
+  EXPECT_EQ(
+      error_of("WorldBegin\nMaterial \"diffuse\" \"float reflectance\" \"red\"\n"),
+      "t.pbrt:2:20: error: parameter \"reflectance\" of type float expects numbers, got \"red\"");
+  EXPECT_EQ(
+      error_of("Film \"rgb\" \"integer xresolution\" 1.5\n" + std::string(kSphere)),
+      "t.pbrt:1:12: error: parameter \"xresolution\" of type integer expects integers, got 1.5");
+  EXPECT_EQ(
+      error_of("Integrator \"path\" \"bool regularize\" 1\n" + std::string(kSphere)),
+      "t.pbrt:1:19: error: parameter \"regularize\" of type bool expects true or false, got 1");
+  EXPECT_EQ(error_of("Integrator \"path\" \"quaternion q\" 1\n" + std::string(kSphere)),
+            "t.pbrt:1:19: error: unknown parameter type \"quaternion\" for parameter \"q\"");
+  // pbrt-v4 DiffuseMaterial takes a spectrum texture: a float reflectance is refused.
+  EXPECT_EQ(
+      error_of("WorldBegin\nMaterial \"diffuse\" \"float reflectance\" 0.5\n"),
+      "t.pbrt:2:20: error: parameter \"reflectance\" has type float; expected rgb or spectrum "
+      "or blackbody");
+}
+
+TEST(ParserErrors, WrongValueCount) {
+  EXPECT_EQ(
+      error_of("WorldBegin\nLightSource \"point\" \"point3 from\" [1 2]\n"),
+      "t.pbrt:2:21: error: parameter \"from\" of type point3 needs a multiple of 3 values, got 2");
+  EXPECT_EQ(error_of("Camera \"perspective\" \"float fov\" [30 40]\n" + std::string(kSphere)),
+            "t.pbrt:1:22: error: expected one value for parameter \"fov\", got 2");
+  EXPECT_EQ(error_of("Camera \"perspective\" \"float fov\" []\n" + std::string(kSphere)),
+            "t.pbrt:1:22: error: no values given for parameter \"fov\"");
+  EXPECT_EQ(error_of("Camera \"perspective\" \"float fov\"\n" + std::string(kSphere)),
+            "t.pbrt:1:22: error: no value given for parameter \"fov\"");
+  EXPECT_EQ(
+      error_of("Camera \"perspective\" \"float screenwindow\" [0 1]\n" + std::string(kSphere)),
+      "t.pbrt:1:22: error: screenwindow needs four values");
+  EXPECT_EQ(error_of("LookAt 0 0 0 1 1\nWorldBegin\n"),
+            "t.pbrt:2:1: error: LookAt expects 9 numbers, got WorldBegin");
+  EXPECT_EQ(
+      error_of("Camera \"perspective\" \"float fov\" [30\nWorldBegin\n"),
+      "t.pbrt:2:1: error: unexpected WorldBegin in the values of parameter \"fov\" (missing ']'?)");
+}
+
+TEST(ParserErrors, MissingFile) {
+  fs::path d = temp_dir("missing");
+  std::string top = (d / "nope.pbrt").string();
+  try {
+    load_scene(top);
+    FAIL() << "no error";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              top + ": error: cannot open scene file \"" + top + "\": No such file or directory");
+    EXPECT_EQ(e.loc.file, top);
+  }
+  EXPECT_EQ(error_of("WorldBegin\n  Include \"gone.pbrt\"\n", d.string()),
+            "t.pbrt:2:3: error: cannot open included file \"" + (d / "gone.pbrt").string() +
+                "\": No such file or directory");
+  EXPECT_EQ(
+      error_of("WorldBegin\nShape \"plymesh\" \"string filename\" \"gone.ply\"\n", d.string()),
+      "t.pbrt:2:1: error: PLY file \"" + (d / "gone.ply").string() +
+          "\": cannot open PLY file: No such file or directory");
+}
+
+TEST(ParserErrors, UnreadableFile) {
+  // chmod 000 does not stop root: a directory is a file name that cannot be read.
+  fs::path d = temp_dir("unreadable");
+  fs::create_directories(d / "dir.pbrt");
+  std::string top = (d / "dir.pbrt").string();
+  try {
+    load_scene(top);
+    FAIL() << "no error";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              top + ": error: cannot read scene file \"" + top + "\": is a directory");
+  }
+  EXPECT_EQ(error_of("Include \"dir.pbrt\"\n", d.string()),
+            "t.pbrt:1:1: error: cannot read included file \"" + top + "\": is a directory");
+}
+
+TEST(ParserErrors, UnterminatedString) {
+  EXPECT_EQ(error_of("WorldBegin\nShape \"sphere\n\"float radius\" 1\n"),
+            "t.pbrt:2:7: error: unterminated string");
+  EXPECT_EQ(error_of("WorldBegin\nShape \"sphere"), "t.pbrt:2:7: error: unterminated string");
+}
+
+TEST(ParserErrors, MalformedNumber) {
+  EXPECT_EQ(error_of("WorldBegin\nTranslate 1.2.3 0 0\n"),
+            "t.pbrt:2:11: error: malformed number '1.2.3'");
+  EXPECT_EQ(error_of("WorldBegin\nTranslate 1 1e 0\n"),
+            "t.pbrt:2:13: error: malformed number '1e'");
+  EXPECT_EQ(error_of("WorldBegin\nShape \"sphere\" \"float radius\" [ - ]\n"),
+            "t.pbrt:2:33: error: malformed number '-'");
+}
+
+TEST(ParserErrors, BadResolution) {
+  EXPECT_EQ(error_of("Film \"rgb\"\n  \"integer xresolution\" [ -640 ]\n" + std::string(kSphere)),
+            "t.pbrt:2:3: error: xresolution must be positive, got -640");
+  EXPECT_EQ(error_of("Film \"rgb\" \"integer xresolution\" 4 \"integer yresolution\" 0\n" +
+                     std::string(kSphere)),
+            "t.pbrt:1:36: error: yresolution must be positive, got 0");
+}
+
+TEST(ParserErrors, EmptyScene) {
+  EXPECT_EQ(error_of(""), "t.pbrt:1:1: error: empty scene: no shapes or lights (no WorldBegin)");
+  EXPECT_EQ(error_of("# nothing\nCamera \"perspective\"\nWorldBegin\n"),
+            "t.pbrt:4:1: error: empty scene: no shapes or lights");
+}
+
+TEST(ParserErrors, UnsupportedMaterial) {
+  EXPECT_EQ(error_of("WorldBegin\n  Material \"coateddiffuse\"\nShape \"sphere\"\n"),
+            "t.pbrt:2:3: error: material 'coateddiffuse' is not supported yet");
+  EXPECT_EQ(error_of("WorldBegin\nMakeNamedMaterial \"m\" \"string type\" \"conductor\"\n"),
+            "t.pbrt:2:23: error: material 'conductor' is not supported yet");
+  EXPECT_EQ(error_of("WorldBegin\nMakeNamedMaterial \"m\" \"rgb reflectance\" [1 1 1]\n"),
+            "t.pbrt:2:1: error: MakeNamedMaterial \"m\" needs a \"string type\" parameter");
+  EXPECT_EQ(error_of("WorldBegin\nMakeNamedMaterial \"m\" \"string type\" \"diffuse\"\n"
+                     "MakeNamedMaterial \"m\" \"string type\" \"diffuse\"\n"),
+            "t.pbrt:3:1: error: named material \"m\" redefined");
+  EXPECT_EQ(error_of("WorldBegin\n NamedMaterial \"nope\"\nShape \"sphere\"\n"),
+            "t.pbrt:2:2: error: named material \"nope\" is not defined");
+  EXPECT_EQ(
+      error_of("WorldBegin\nMaterial \"diffuse\" \"rgb reflectance\" [1.5 0 0]\n"),
+      "t.pbrt:2:20: error: parameter \"reflectance\" is a reflectance and has a component above 1");
+}
+
+TEST(ParserErrors, UnbalancedAttributes) {
+  EXPECT_EQ(error_of("WorldBegin\nShape \"sphere\"\n  AttributeEnd\n"),
+            "t.pbrt:3:3: error: AttributeEnd without a matching AttributeBegin");
+  EXPECT_EQ(
+      error_of("WorldBegin\nAttributeBegin\n AttributeBegin\nAttributeEnd\nShape \"sphere\"\n"),
+      "t.pbrt:2:1: error: AttributeBegin without a matching AttributeEnd");
+  EXPECT_EQ(error_of("AttributeBegin\n"),
+            "t.pbrt:1:1: error: 'AttributeBegin' is only allowed after WorldBegin");
+}
+
+TEST(ParserErrors, BlockStructure) {
+  EXPECT_EQ(error_of("Shape \"sphere\"\n"),
+            "t.pbrt:1:1: error: 'Shape' is only allowed after WorldBegin");
+  EXPECT_EQ(error_of("WorldBegin\nShape \"sphere\"\nCamera \"perspective\"\n"),
+            "t.pbrt:3:1: error: 'Camera' is not allowed after WorldBegin");
+  EXPECT_EQ(error_of("WorldBegin\nWorldBegin\n"),
+            "t.pbrt:2:1: error: 'WorldBegin' is not allowed after WorldBegin");
+}
+
+TEST(ParserErrors, UnsupportedTypesAreNamed) {
+  EXPECT_EQ(error_of("Camera \"orthographic\"\n" + std::string(kSphere)),
+            "t.pbrt:1:1: error: camera 'orthographic' is not supported yet (basalt has the "
+            "perspective camera)");
+  EXPECT_EQ(error_of("WorldBegin\nShape \"cylinder\"\n"),
+            "t.pbrt:2:1: error: shape 'cylinder' is not supported yet");
+  EXPECT_EQ(error_of("WorldBegin\nLightSource \"goniometric\"\n"),
+            "t.pbrt:2:1: error: light 'goniometric' is not supported yet");
+  EXPECT_EQ(error_of("WorldBegin\nAreaLightSource \"fancy\"\n"),
+            "t.pbrt:2:1: error: area light 'fancy' is not supported yet");
+  EXPECT_EQ(error_of("PixelFilter \"mitchell\"\n" + std::string(kSphere)),
+            "t.pbrt:1:1: error: filter 'mitchell' is not supported yet (box and gaussian are)");
+  EXPECT_EQ(error_of("Integrator \"bdpt\"\n" + std::string(kSphere)),
+            "t.pbrt:1:1: error: integrator 'bdpt' is not supported (basalt renders with "
+            "Integrator 'path')");
+  EXPECT_EQ(error_of("Film \"fancy\"\n" + std::string(kSphere)),
+            "t.pbrt:1:1: error: film 'fancy' is not supported (basalt writes Film 'rgb')");
+  EXPECT_EQ(error_of("WorldBegin\n Texture \"t\" \"spectrum\" \"checkerboard\"\n"),
+            "t.pbrt:2:2: error: textures are not supported yet");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"diffuse\" \"texture reflectance\" \"t\"\n"),
+            "t.pbrt:2:20: error: textures are not supported yet (parameter \"reflectance\" refers "
+            "to texture \"t\")");
+  EXPECT_EQ(error_of("WorldBegin\nLightSource \"infinite\" \"string filename\" \"sky.exr\"\n"),
+            "t.pbrt:2:24: error: image infinite lights not supported yet");
+  EXPECT_EQ(error_of("WorldBegin\nLightSource \"point\" \"blackbody I\" 3000\n"),
+            "t.pbrt:2:21: error: spectrum parameters are not supported yet: blackbody parameter "
+            "\"I\"; give an rgb value");
+  EXPECT_EQ(error_of("WorldBegin\nLightSource \"point\" \"spectrum I\" \"stdillum-D65\"\n"),
+            "t.pbrt:2:21: error: spectrum parameters are not supported yet: named spectrum "
+            "\"stdillum-D65\" for parameter \"I\"; give an rgb value");
+  EXPECT_EQ(
+      error_of("WorldBegin\nMaterial \"diffuse\" \"spectrum reflectance\" [400 0.1 700 0.9]\n"),
+      "t.pbrt:2:20: error: spectrum parameters are not supported yet: parameter "
+      "\"reflectance\" is not constant; give an rgb value");
+  EXPECT_EQ(
+      error_of("WorldBegin\nLightSource \"point\" \"float power\" 10\n"),
+      "t.pbrt:2:21: error: parameter \"power\" (photometric light scaling) is not supported yet");
+}
+
+TEST(ParserErrors, PartialSphere) {
+  EXPECT_EQ(error_of("WorldBegin\nShape \"sphere\" \"float zmax\" 0.5\n"),
+            "t.pbrt:2:16: error: partial spheres not supported");
+  EXPECT_EQ(error_of("WorldBegin\nShape \"sphere\" \"float radius\" 2 \"float phimax\" 180\n"),
+            "t.pbrt:2:33: error: partial spheres not supported");
+  // zmin/zmax beyond the radius are clamped (pbrt-v4 Sphere): still a full sphere.
+  EXPECT_EQ(error_of("WorldBegin\nShape \"sphere\" \"float zmin\" -5 \"float zmax\" 5\n"), "");
+}
+
+TEST(ParserErrors, BadTriangleMesh) {
+  EXPECT_EQ(error_of("WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"
+                     "  \"integer indices\" [0 1 3]\n"),
+            "t.pbrt:3:3: error: trianglemesh index 3 out of range (the mesh has 3 vertices)");
+  EXPECT_EQ(error_of("WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"
+                     "  \"integer indices\" [0 1]\n"),
+            "t.pbrt:3:3: error: trianglemesh has 2 indices, not a multiple of 3");
+  EXPECT_EQ(error_of("WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0 1 1 1]\n"),
+            "t.pbrt:2:1: error: trianglemesh needs \"integer indices\" (only a mesh of exactly 3 "
+            "vertices may omit them; this one has 4)");
+  EXPECT_EQ(error_of("WorldBegin\nShape \"trianglemesh\" \"integer indices\" [0 1 2]\n"),
+            "t.pbrt:2:1: error: trianglemesh needs vertex positions \"point3 P\"");
+  EXPECT_EQ(error_of("WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"
+                     "  \"normal N\" [0 0 1]\n"),
+            "t.pbrt:3:3: error: trianglemesh has 1 normals \"N\" for 3 vertices");
+  EXPECT_EQ(error_of("WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"
+                     "  \"point2 uv\" [0 0]\n"),
+            "t.pbrt:3:3: error: trianglemesh has 1 \"uv\" values for 3 vertices");
+}
+
+TEST(ParserErrors, DegenerateTransforms) {
+  EXPECT_EQ(error_of("LookAt 0 0 0  0 0 1  0 0 1\n" + std::string(kSphere)),
+            "t.pbrt:1:1: error: LookAt up vector and viewing direction are parallel");
+  EXPECT_EQ(error_of("Scale 0 1 1\nCamera \"perspective\"\n" + std::string(kSphere)),
+            "t.pbrt:2:1: error: the camera transform (CTM at Camera) is not invertible");
+  EXPECT_EQ(error_of("WorldBegin\nRotate 10 0 0 0\n"),
+            "t.pbrt:2:1: error: Rotate axis is the zero vector");
+}
