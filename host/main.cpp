@@ -58,7 +58,9 @@ int run(const Options& opt) {
     }
 
   basalt::BuildTimes times;
-  basalt::SceneTables tables = basalt::build_tables(scene, &times);
+  std::vector<std::string> warnings;
+  basalt::SceneTables tables = basalt::build_tables(scene, &times, &warnings);
+  for (const auto& w : warnings) std::cerr << w << "\n";
   st.seconds_bvh = times.seconds_bvh;
   st.width = int(tables.width());
   st.height = int(tables.height());
@@ -79,7 +81,8 @@ int run(const Options& opt) {
     st.driver = "basalt CPU reference";
     accum.assign(std::size_t(st.width) * st.height, glm::vec4(0.0f));
     t0 = Clock::now();
-    st.rays = basalt::cpu::render(tables, 0, std::uint32_t(st.spp), accum, progress);
+    st.rays = basalt::cpu::render(tables, 0, std::uint32_t(st.spp), accum, progress,
+                                  &st.nonfinite_samples);
     st.seconds_render = since(t0);
   } else {
     basalt::vkx::Context ctx(opt.device, basalt::vkx::Context::validation_requested());
@@ -92,10 +95,14 @@ int run(const Options& opt) {
     gpu.render(0, std::uint32_t(st.spp), progress);
     st.seconds_render = since(t0);
     st.rays = gpu.rays();
+    st.nonfinite_samples = gpu.nonfinite_samples();
     accum = gpu.accum();
     validation_errors = ctx.validation_errors();
   }
   bar.finish();
+  if (st.nonfinite_samples)
+    std::cerr << "basalt: warning: " << st.nonfinite_samples
+              << " sample(s) had NaN or infinite radiance and were dropped\n";
   st.samples_per_second = st.seconds_render > 0 ? double(total) / st.seconds_render : 0.0;
   st.rays_per_second = st.seconds_render > 0 ? double(st.rays) / st.seconds_render : 0.0;
 

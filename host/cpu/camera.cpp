@@ -54,16 +54,17 @@ Ray camera_ray(const SceneTables& scene, std::uint32_t px, std::uint32_t py, std
   const float sy = g.screen.w - film.y / float(g.image.y) * (g.screen.w - g.screen.z);
   const float tan_half = g.lens.x;
   const glm::vec3 d(sx * tan_half, sy * tan_half, 1.0f);
-  // Step 4: pinhole or thin lens (pbrt-v4 5.2.3).
+  // Step 4: pinhole or thin lens (pbrt-v4 5.2.3). Every normalize is v / sqrt(dot(v, v))
+  // (safe_normalize), as the GPU's; glm::normalize's v * inversesqrt differs by an ulp.
   glm::vec3 o(0.0f), dir;
   const float lens_radius = g.lens.y;
   if (lens_radius > 0.0f) {
     const glm::vec2 lens = lens_radius * concentric_disk(glm::vec2(r(dim::LENS_X), r(dim::LENS_Y)));
     const glm::vec3 focus = d * g.lens.z;
     o = glm::vec3(lens, 0.0f);
-    dir = glm::normalize(focus - o);
+    dir = safe_normalize(focus - o);
   } else {
-    dir = glm::normalize(d);
+    dir = safe_normalize(d);
   }
   // Step 5: to world space.
   const glm::vec3 wo = glm::vec3(g.world_from_camera * glm::vec4(o, 1.0f));

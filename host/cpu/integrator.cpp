@@ -30,14 +30,14 @@ glm::vec3 sample_direct(const SceneTables& scene, const SurfacePoint& sp,
   const gpu::Light& light = scene.lights[li];
   if (!(light.pmf > 0.0f)) return glm::vec3(0.0f);  // never picked by a consistent CDF
   const LightSample ls = sample_light(
-      scene, light, sp.g.p, sp.g.ng,
+      scene, light, sp.g.p, sp.g.ng, sp.g.m,
       glm::vec2(r(dim::bounce(b, dim::LIGHT_U0)), r(dim::bounce(b, dim::LIGHT_U1))));
   if (!(ls.pdf > 0.0f) || !any_positive(ls.Li)) return glm::vec3(0.0f);
   const glm::vec3 wi = sp.frame.to_local(ls.wi);
   const glm::vec3 f = bsdf_eval(mat, wo, wi) * std::fabs(glm::dot(ls.wi, sp.g.ns));
   if (!any_positive(f)) return glm::vec3(0.0f);
   ++rays;
-  if (intersect_any(scene, shadow_ray(sp.g.p, sp.g.ng, ls))) return glm::vec3(0.0f);
+  if (intersect_any(scene, shadow_ray(sp.g.p, sp.g.ng, sp.g.m, ls))) return glm::vec3(0.0f);
   if (ls.delta) return f * ls.Li / light.pmf;
   const float pl = light.pmf * ls.pdf;
   if (!(pl > 0.0f)) return glm::vec3(0.0f);  // underflow of pmf * pdf
@@ -51,6 +51,7 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
   const std::uint32_t max_depth = g.image.z;
   const std::uint32_t n_inf = std::min(g.counts.y, gpu::MAX_INFINITE_LIGHTS);
   glm::vec3 L(0.0f), beta(1.0f), p_prev(0.0f), ng_prev(0.0f);
+  float m_prev = 0.0f;
   bool specular = false;
   float pdf_prev = 0.0f;
   std::uint32_t depth = 0;
@@ -80,7 +81,8 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
         if (depth == 0 || specular) {
           L += beta * Le;
         } else {
-          const float pl = light.pmf * area_light_pdf(scene, light, p_prev, ng_prev, sp.g.p, sp.g.ng, ray.d);
+          const float pl = light.pmf * area_light_pdf(scene, light, p_prev, ng_prev, m_prev, sp.g.p,
+                                                          sp.g.ng, ray.d);
           L += beta * power_heuristic(pdf_prev, pl) * Le;
         }
       }
@@ -103,7 +105,8 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
     specular = bs.specular;
     p_prev = sp.g.p;
     ng_prev = sp.g.ng;
-    ray = spawn_ray(sp.g.p, sp.g.ng, wi);
+    m_prev = sp.g.m;
+    ray = spawn_ray(sp.g.p, sp.g.ng, sp.g.m, wi);
     // Russian roulette (pbrt-v4 13.1.3), from the third vertex on.
     const float mb = max_component(beta);
     if (mb < 1.0f && depth > 1) {
@@ -113,8 +116,6 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
     }
   }
   if (rays) *rays += nrays;
-  // Guard against NaN/inf from degenerate input (never produced by valid tables).
-  if (!std::isfinite(L.x) || !std::isfinite(L.y) || !std::isfinite(L.z)) return glm::vec3(0.0f);
   return L;
 }
 

@@ -23,15 +23,14 @@ inline float one_minus_cos_max(float r2, float d2) {
   return 1.0f - safe_sqrt(1.0f - sin2_max);
 }
 
-/// Whether sphere-light sampling from shading point p (geometric normal ng) uses the
-/// inside (area) branch. DEVIATION from docs/path-spec.md section 6, reported: the spec tests
-/// |p - c|^2 <= r^2, which for a shading point on the light sphere itself (r^2 up to rounding)
-/// picks either branch at random, and the cone branch then degenerates (the visible cap of a
-/// sphere seen from its own surface is a point: samples collapse onto p). pbrt-v4
-/// Sphere::Sample/PDF test ctx.OffsetRayOrigin(pCenter) instead; here that is offset_ray(p)
-/// towards the centre with the spec's own continuation rule. With ng = 0 it is the spec's test.
-inline bool sphere_ref_inside(glm::vec3 p, glm::vec3 ng, glm::vec3 c, float r) {
-  const glm::vec3 po = offset_ray(p, glm::dot(c - p, ng) > 0.0f ? ng : -ng);
+/// Whether sphere-light sampling from shading point p (geometric normal ng, magnitude bound m)
+/// uses the inside (area) branch (docs/path-spec.md section 6, "sphere"): the test is made on
+/// pi = offset_ray(p, dot(c - p, ng) > 0 ? ng : -ng, m) (section 5), as pbrt-v4
+/// Sphere::Sample/PDF test ctx.OffsetRayOrigin(pCenter), so that a shading point on the light
+/// sphere itself counts as inside rather than picking a branch by rounding (the cone branch
+/// would degenerate there). With ng = 0 (a point in space) pi = p.
+inline bool sphere_ref_inside(glm::vec3 p, glm::vec3 ng, float m, glm::vec3 c, float r) {
+  const glm::vec3 po = offset_ray(p, glm::dot(c - p, ng) > 0.0f ? ng : -ng, m);
   return glm::dot(po - c, po - c) <= r * r;
 }
 
@@ -52,14 +51,15 @@ inline glm::vec3 sphere_light_normal(const gpu::Sphere& sp, glm::vec3 n) {
 /// Samples a point on a sphere light seen from p (spec section 6, "sphere"; pbrt-v4 6.2.4
 /// Sphere::Sample(ctx, u)).
 void sample_sphere(const SceneTables& scene, const gpu::Light& light, glm::vec3 p, glm::vec3 ng,
-                   glm::vec2 u, LightSample& ls) {
+                   float m, glm::vec2 u, LightSample& ls) {
   const gpu::Sphere& sp = scene.spheres[light.prim];
   const glm::vec3 c(sp.center_radius);
   const float r = sp.center_radius.w;
   if (!(r > 0.0f)) return;  // a point-sized sphere has no area to sample (0/0 below)
   const float d2 = glm::dot(p - c, p - c);
   glm::vec3 n;
-  if (sphere_ref_inside(p, ng, c, r)) {
+  ls.m = sphere_magnitude(c, r);  // bound of every point of the light (section 5)
+  if (sphere_ref_inside(p, ng, m, c, r)) {
     // Inside (or on) the sphere: uniform area sampling, converted to solid angle.
     n = uniform_sphere(u);
     ls.q = c + r * n;
@@ -85,7 +85,8 @@ void sample_sphere(const SceneTables& scene, const gpu::Light& light, glm::vec3 
     const float sin_a = safe_sqrt(1.0f - cos_a * cos_a);
     const float phi = 2.0f * PI * u.y;
     const glm::vec3 w(sin_a * std::cos(phi), sin_a * std::sin(phi), cos_a);
-    const Frame f = Frame::from_z(glm::normalize(c - p));
+    // normalize as v / sqrt(dot(v, v)), like every normalize of the spec (not glm's inversesqrt).
+    const Frame f = Frame::from_z(safe_normalize(c - p));
     n = -(w.x * f.t1 + w.y * f.t2 + w.z * f.n);
     ls.q = c + r * n;
     const glm::vec3 dq = ls.q - p;
@@ -106,6 +107,7 @@ void sample_triangle(const SceneTables& scene, const gpu::Light& light, glm::vec
   const SurfaceGeometry g = triangle_geometry(scene, light.prim, b.x, b.y, b.z);
   ls.q = g.p;
   ls.nl = g.ng;
+  ls.m = g.m;  // the triangle's bound at q (section 5)
   const glm::vec3 dq = ls.q - p;
   const float dist2 = glm::dot(dq, dq);
   if (!(dist2 > 0.0f)) return;
@@ -145,7 +147,7 @@ glm::vec3 area_Le(const gpu::Light& light, glm::vec3 nl, glm::vec3 w) {
 }
 
 LightSample sample_light(const SceneTables& scene, const gpu::Light& light, glm::vec3 p,
-                         glm::vec3 ng, glm::vec2 u) {
+                         glm::vec3 ng, float m, glm::vec2 u) {
   LightSample ls;
   switch (light.type) {
     case gpu::LIGHT_POINT:
@@ -185,7 +187,7 @@ LightSample sample_light(const SceneTables& scene, const gpu::Light& light, glm:
       return ls;
     case gpu::LIGHT_AREA_SPHERE:
       ls.area = true;
-      sample_sphere(scene, light, p, ng, u, ls);
+      sample_sphere(scene, light, p, ng, m, u, ls);
       return ls;
     default:
       return ls;
@@ -193,7 +195,7 @@ LightSample sample_light(const SceneTables& scene, const gpu::Light& light, glm:
 }
 
 float area_light_pdf(const SceneTables& scene, const gpu::Light& light, glm::vec3 p_ref,
-                     glm::vec3 ng_ref, glm::vec3 q, glm::vec3 nq, glm::vec3 w) {
+                     glm::vec3 ng_ref, float m_ref, glm::vec3 q, glm::vec3 nq, glm::vec3 w) {
   const glm::vec3 dq = q - p_ref;
   const float dist2 = glm::dot(dq, dq);
   switch (light.type) {
@@ -206,7 +208,7 @@ float area_light_pdf(const SceneTables& scene, const gpu::Light& light, glm::vec
       const glm::vec3 c(sp.center_radius);
       const float r = sp.center_radius.w;
       const float d2c = glm::dot(p_ref - c, p_ref - c);
-      if (sphere_ref_inside(p_ref, ng_ref, c, r))
+      if (sphere_ref_inside(p_ref, ng_ref, m_ref, c, r))
         return area_to_solid_angle(dist2, glm::dot(nq, -w), 4.0f * PI * r * r);
       const float one_minus = one_minus_cos_max(r * r, d2c);
       return one_minus > 0.0f ? 1.0f / (2.0f * PI * one_minus) : 0.0f;
@@ -216,11 +218,13 @@ float area_light_pdf(const SceneTables& scene, const gpu::Light& light, glm::vec
   }
 }
 
-Ray shadow_ray(glm::vec3 p, glm::vec3 ng, const LightSample& ls) {
-  const glm::vec3 o = offset_ray(p, glm::dot(ls.wi, ng) > 0.0f ? ng : -ng);
+Ray shadow_ray(glm::vec3 p, glm::vec3 ng, float m, const LightSample& ls) {
+  // Spec section 5: origin offset with the shading point's bound m, an area light's target
+  // with the light primitive's bound at q.
+  const glm::vec3 o = offset_ray(p, glm::dot(ls.wi, ng) > 0.0f ? ng : -ng, m);
   if (ls.at_infinity) return Ray{o, ls.wi, FLT_MAX};
   glm::vec3 target = ls.q;
-  if (ls.area) target = offset_ray(ls.q, glm::dot(o - ls.q, ls.nl) > 0.0f ? ls.nl : -ls.nl);
+  if (ls.area) target = offset_ray(ls.q, glm::dot(o - ls.q, ls.nl) > 0.0f ? ls.nl : -ls.nl, ls.m);
   return Ray{o, target - o, 1.0f - 1e-4f};
 }
 

@@ -19,6 +19,7 @@ struct LightSample {
   bool area = false;      // area light: the shadow ray target is offset off the light
   glm::vec3 q{0.0f};      // point on the light (point, spot, area)
   glm::vec3 nl{0.0f};     // light surface normal at q (area)
+  float m = 0.0f;         // magnitude bound of the light primitive at q (area; section 5)
 };
 
 /// \brief Number of lights usable by the light sampler (Globals.counts.x, bounded by the tables).
@@ -28,23 +29,25 @@ std::uint32_t light_count(const SceneTables& scene);
 ///        search); INVALID_INDEX without lights.
 std::uint32_t select_light(const SceneTables& scene, float u);
 
-/// \brief Samples light at shading point p (geometric normal ng, or 0 for a point in space)
-///        with u = (u0, u1) (spec section 6; ng only decides a sphere light's inside test).
+/// \brief Samples light at shading point p (geometric normal ng, or 0 for a point in space;
+///        magnitude bound m) with u = (u0, u1) (spec section 6; ng and m only decide a sphere
+///        light's inside test).
 LightSample sample_light(const SceneTables& scene, const gpu::Light& light, glm::vec3 p,
-                         glm::vec3 ng, glm::vec2 u);
+                         glm::vec3 ng, float m, glm::vec2 u);
 
 /// \brief Solid-angle pdf with which sample_light(area light, p_ref) produces the point q
-///        (normal nq) reached from p_ref (geometric normal ng_ref) along the unit direction w
-///        (pbrt-v4 Triangle/Sphere::PDF).
+///        (normal nq) reached from p_ref (geometric normal ng_ref, magnitude bound m_ref) along
+///        the unit direction w (pbrt-v4 Triangle/Sphere::PDF).
 float area_light_pdf(const SceneTables& scene, const gpu::Light& light, glm::vec3 p_ref,
-                     glm::vec3 ng_ref, glm::vec3 q, glm::vec3 nq, glm::vec3 w);
+                     glm::vec3 ng_ref, float m_ref, glm::vec3 q, glm::vec3 nq, glm::vec3 w);
 
 /// \brief Emitted radiance of an area light at a point with emitting-side normal nl towards
 ///        direction w (w points to the receiver; spec section 6 "Area emission").
 glm::vec3 area_Le(const gpu::Light& light, glm::vec3 nl, glm::vec3 w);
 
-/// \brief Shadow ray from shading point p (geometric normal ng) to the light sample
-///        (spec section 5).
-Ray shadow_ray(glm::vec3 p, glm::vec3 ng, const LightSample& ls);
+/// \brief Shadow ray from shading point p (geometric normal ng, magnitude bound m) to the
+///        light sample (spec section 5): an area light's target is offset off the light with
+///        the sample's own bound ls.m.
+Ray shadow_ray(glm::vec3 p, glm::vec3 ng, float m, const LightSample& ls);
 
 }  // namespace basalt::cpu

@@ -29,7 +29,7 @@ std::vector<gpu::ProbeOut> probe(const SceneTables& scene, const std::vector<gpu
         if (h.valid()) {
           // Continuation from the first hit's surface point (spec sections 4 and 5).
           const SurfacePoint sp = surface_point(scene, ray, h);
-          h2 = intersect_closest(scene, spawn_ray(sp.g.p, sp.g.ng, glm::vec3(q.extra)));
+          h2 = intersect_closest(scene, spawn_ray(sp.g.p, sp.g.ng, sp.g.m, glm::vec3(q.extra)));
         }
         o.f1 = glm::vec4(h2.t, h2.b1, h2.b2, 0.0f);
         o.u.y = h2.prim;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <thread>
 
 #include "cpu/integrator.h"
@@ -10,7 +11,8 @@
 namespace basalt::cpu {
 
 std::uint64_t render(const SceneTables& scene, std::uint32_t sample_start, std::uint32_t sample_count,
-            std::vector<glm::vec4>& accum, const std::function<void(double)>& progress) {
+            std::vector<glm::vec4>& accum, const std::function<void(double)>& progress,
+            std::uint64_t* nonfinite_samples) {
   const std::uint32_t w = scene.width(), h = scene.height();
   const std::size_t npix = std::size_t(w) * h;
   if (accum.size() != npix) accum.assign(npix, glm::vec4(0.0f));
@@ -22,11 +24,11 @@ std::uint64_t render(const SceneTables& scene, std::uint32_t sample_start, std::
   const std::uint32_t tiles_x = (w + TILE - 1) / TILE, tiles_y = (h + TILE - 1) / TILE;
   const std::uint32_t ntiles = tiles_x * tiles_y;
   std::atomic<std::uint32_t> next{0}, done{0};
-  std::atomic<std::uint64_t> total_rays{0};
+  std::atomic<std::uint64_t> total_rays{0}, total_nonfinite{0};
 
   // Worker: takes tiles until none are left; worker 0 (the calling thread) reports progress.
   auto work = [&](bool reporter) {
-    std::uint64_t rays = 0;
+    std::uint64_t rays = 0, nonfinite = 0;
     for (;;) {
       const std::uint32_t t = next.fetch_add(1, std::memory_order_relaxed);
       if (t >= ntiles) break;
@@ -35,8 +37,15 @@ std::uint64_t render(const SceneTables& scene, std::uint32_t sample_start, std::
       for (std::uint32_t y = y0; y < y1; ++y) {
         for (std::uint32_t x = x0; x < x1; ++x) {
           glm::vec3 sum(0.0f);
-          for (std::uint32_t s = sample_start; s < sample_start + sample_count; ++s)
-            sum += path_radiance(scene, x, y, s, &rays);
+          for (std::uint32_t s = sample_start; s < sample_start + sample_count; ++s) {
+            glm::vec3 L = path_radiance(scene, x, y, s, &rays);
+            // A NaN or infinity would poison the pixel: dropped and counted (path-spec 9).
+            if (!std::isfinite(L.x) || !std::isfinite(L.y) || !std::isfinite(L.z)) {
+              L = glm::vec3(0.0f);
+              ++nonfinite;
+            }
+            sum += L;
+          }
           accum[std::size_t(y) * w + x] += glm::vec4(sum, float(sample_count));
         }
       }
@@ -44,6 +53,7 @@ std::uint64_t render(const SceneTables& scene, std::uint32_t sample_start, std::
       if (reporter && progress) progress(double(d) / double(ntiles));
     }
     total_rays.fetch_add(rays, std::memory_order_relaxed);
+    total_nonfinite.fetch_add(nonfinite, std::memory_order_relaxed);
   };
 
   const unsigned nthreads = std::max(1u, std::thread::hardware_concurrency());
@@ -53,6 +63,7 @@ std::uint64_t render(const SceneTables& scene, std::uint32_t sample_start, std::
   work(true);
   for (std::thread& t : threads) t.join();
   if (progress) progress(1.0);
+  if (nonfinite_samples) *nonfinite_samples += total_nonfinite.load();
   return total_rays.load();
 }
 

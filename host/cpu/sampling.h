@@ -20,7 +20,10 @@ inline float max_component(glm::vec3 v) { return std::fmax(v.x, std::fmax(v.y, v
 /// True if some component of an rgb value is positive (pbrt-v4 "bool(SampledSpectrum)").
 inline bool any_positive(glm::vec3 v) { return v.x > 0.0f || v.y > 0.0f || v.z > 0.0f; }
 
-/// v / |v|, or the zero vector when |v| is 0 (never NaN).
+/// The spec's normalize, v / sqrt(dot(v, v)) (what lavapipe's GLSL normalize does; not
+/// glm::normalize's v * inversesqrt(dot(v, v)), which can differ by an ulp), or the zero
+/// vector when dot(v, v) is 0 (never NaN). Every direction of the CPU reference is normalized
+/// here.
 inline glm::vec3 safe_normalize(glm::vec3 v) {
   const float l2 = glm::dot(v, v);
   if (!(l2 > 0.0f)) return glm::vec3(0.0f);

@@ -1,7 +1,6 @@
 // Surface points and ray spawning of the CPU reference (docs/path-spec.md sections 4 and 5).
 #include "cpu/surface.h"
 
-#include <bit>
 #include <cfloat>
 #include <cmath>
 
@@ -18,6 +17,7 @@ SurfaceGeometry triangle_geometry(const SceneTables& scene, std::uint32_t tri, f
   SurfaceGeometry g;
   // Spec section 4: interpolated position, never o + t d.
   g.p = b0 * p0 + b1 * p1 + b2 * p2;
+  g.m = triangle_magnitude(p0, p1, p2, b0, b1, b2);
   // pbrt-v4 Triangle::InteractionFromIntersection: n = normalize(cross(dp02, dp12)).
   g.ng = safe_normalize(glm::cross(p0 - p2, p1 - p2));
   if (flags & gpu::SHAPE_FLAG_HAS_NORMALS) {
@@ -44,6 +44,7 @@ SurfaceGeometry sphere_geometry(const SceneTables& scene, std::uint32_t s, glm::
   g.ng = (g.p - c) / r;
   if (sp.flags & gpu::SHAPE_FLAG_FLIP_NORMAL) g.ng = -g.ng;
   g.ns = g.ng;
+  g.m = sphere_magnitude(c, r);
   return g;
 }
 
@@ -68,24 +69,25 @@ SurfacePoint surface_point(const SceneTables& scene, const Ray& ray, const Hit& 
   return sp;
 }
 
-glm::vec3 offset_ray(glm::vec3 p, glm::vec3 n) {
-  // Constants of Ray Tracing Gems ch. 6: origin 1/32, float_scale 1/65536, int_scale 256.
-  constexpr float ORIGIN = 1.0f / 32.0f, FLOAT_SCALE = 1.0f / 65536.0f, INT_SCALE = 256.0f;
-  glm::vec3 r;
-  for (int i = 0; i < 3; ++i) {
-    // ivec3(256 n): conversion truncates towards zero, as in GLSL.
-    const std::int32_t oi = static_cast<std::int32_t>(INT_SCALE * n[i]);
-    // Integer ulp step away from the surface; unsigned arithmetic for defined wrap-around.
-    const std::uint32_t bits = std::bit_cast<std::uint32_t>(p[i]) +
-                               static_cast<std::uint32_t>(p[i] < 0.0f ? -oi : oi);
-    const float pi = std::bit_cast<float>(bits);
-    r[i] = std::fabs(p[i]) < ORIGIN ? p[i] + FLOAT_SCALE * n[i] : pi;
-  }
-  return r;
+float triangle_magnitude(glm::vec3 p0, glm::vec3 p1, glm::vec3 p2, float b0, float b1, float b2) {
+  // Spec section 5: componentwise abs(b0 p0) + abs(b1 p1) + abs(b2 p2), then the largest.
+  const glm::vec3 s = glm::abs(b0 * p0) + glm::abs(b1 * p1) + glm::abs(b2 * p2);
+  return std::fmax(s.x, std::fmax(s.y, s.z));
 }
 
-Ray spawn_ray(glm::vec3 p, glm::vec3 ng, glm::vec3 wi) {
-  return Ray{offset_ray(p, glm::dot(wi, ng) > 0.0f ? ng : -ng), wi, FLT_MAX};
+float sphere_magnitude(glm::vec3 c, float r) {
+  return std::fmax(std::fabs(c.x), std::fmax(std::fabs(c.y), std::fabs(c.z))) + r;
+}
+
+glm::vec3 offset_ray(glm::vec3 p, glm::vec3 n, float m) {
+  // Spec section 5: 2^-17 = 64 ulps at magnitude m; the scalar first, then p + d n (the
+  // build's -ffp-contract=off keeps the multiply and the add separately rounded).
+  const float d = m * 0x1p-17f;
+  return p + d * n;
+}
+
+Ray spawn_ray(glm::vec3 p, glm::vec3 ng, float m, glm::vec3 wi) {
+  return Ray{offset_ray(p, glm::dot(wi, ng) > 0.0f ? ng : -ng, m), wi, FLT_MAX};
 }
 
 }  // namespace basalt::cpu

@@ -15,6 +15,7 @@ struct SurfaceGeometry {
   glm::vec3 p{0.0f};
   glm::vec3 ng{0.0f, 0.0f, 1.0f};  // geometric normal, oriented as section 4 says
   glm::vec3 ns{0.0f, 0.0f, 1.0f};  // shading normal
+  float m = 0.0f;  // magnitude bound of the primitive at p, for offset_ray (section 5)
 };
 
 /// A shaded hit: geometry, shading frame, material and area light.
@@ -26,23 +27,38 @@ struct SurfacePoint {
 };
 
 /// \brief Point of triangle tri at barycentrics (b0, b1, b2): interpolated position, ng from
-///        cross(p0 - p2, p1 - p2), ns interpolated when the mesh has normals (section 4).
+///        cross(p0 - p2, p1 - p2), ns interpolated when the mesh has normals (section 4), and
+///        the magnitude bound m = max component of |b0 p0| + |b1 p1| + |b2 p2| (section 5).
 SurfaceGeometry triangle_geometry(const SceneTables& scene, std::uint32_t tri, float b0, float b1,
                                   float b2);
 
-/// \brief Point of sphere index s at p (re-projected onto the sphere), normals per section 4.
+/// \brief Point of sphere index s at p (re-projected onto the sphere), normals per section 4,
+///        magnitude bound m = sphere_magnitude(c, r) (section 5).
 SurfaceGeometry sphere_geometry(const SceneTables& scene, std::uint32_t s, glm::vec3 p);
 
 /// \brief Shaded hit of a valid Hit of ray (b0 = 1 - b1 - b2 for triangles).
 SurfacePoint surface_point(const SceneTables& scene, const Ray& ray, const Hit& hit);
 
-/// \brief Waechter & Binder, "A Fast and Robust Method for Avoiding Self-Intersection",
-///        Ray Tracing Gems ch. 6 (2019): p moved off the surface along n (the geometric
-///        normal on the side the ray leaves) by 256 n ulps per component, or by n / 65536 for
-///        components with |p| < 1/32 (docs/path-spec.md section 5).
-glm::vec3 offset_ray(glm::vec3 p, glm::vec3 n);
+/// \brief Magnitude bound of a triangle point b0 p0 + b1 p1 + b2 p2 (docs/path-spec.md
+///        section 5): the largest component of abs(b0 p0) + abs(b1 p1) + abs(b2 p2).
+float triangle_magnitude(glm::vec3 p0, glm::vec3 p1, glm::vec3 p2, float b0, float b1, float b2);
 
-/// \brief Continuation ray from p with geometric normal ng in direction wi (section 5).
-Ray spawn_ray(glm::vec3 p, glm::vec3 ng, glm::vec3 wi);
+/// \brief Magnitude bound of any point of the sphere (c, r) (docs/path-spec.md section 5):
+///        max(|c.x|, |c.y|, |c.z|) + r.
+float sphere_magnitude(glm::vec3 c, float r);
+
+/// \brief docs/path-spec.md section 5: p moved along n (the geometric normal flipped to the
+///        side the ray leaves on) by m 2^-17, where m is the magnitude bound of the primitive
+///        p lies on (64 ulps at magnitude m). The margin scales with the largest coordinate
+///        the intersection tests round at, not with p's own coordinates, in the spirit of
+///        pbrt-v4 6.8.6's error bounds; it replaces Waechter & Binder (Ray Tracing Gems ch. 6),
+///        whose fixed 1/65536 near the origin exceeds objects of 1e-5 and whose per-component
+///        ulp steps are too small for mixed magnitudes. Float arithmetic, no fma:
+///        d = m * 2^-17, then p + d n componentwise.
+glm::vec3 offset_ray(glm::vec3 p, glm::vec3 n, float m);
+
+/// \brief Continuation ray from p (magnitude bound m) with geometric normal ng in direction
+///        wi: o = offset_ray(p, dot(wi, ng) > 0 ? ng : -ng, m), tMax = FLT_MAX (section 5).
+Ray spawn_ray(glm::vec3 p, glm::vec3 ng, float m, glm::vec3 wi);
 
 }  // namespace basalt::cpu

@@ -386,11 +386,33 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
     g.scene_sphere = glm::vec4(world.center(), 0.5f * glm::length(world.hi - world.lo));
   }
 
-  // ---- light selection: pmf proportional to power (path-spec section 6) ------------------
+  // ---- light selection (path-spec section 6) ---------------------------------------------
+  // pbrt-v4's BVHLightSampler top-level split: each light of infinite extent (distant,
+  // infinite) with power is picked with probability 1 / (n_inf + 1), the bounded lights
+  // share the rest in proportion to their power (pbrt-v4 Light::Phi). Plain power sampling
+  // gives infinite lights pi R^2-scaled weights that starve small bright lights.
   {
     std::vector<double> power(t.lights.size());
     for (std::size_t i = 0; i < t.lights.size(); ++i)
       power[i] = light_power(t.lights[i], t.spheres, g.scene_sphere.w);
+    auto infinite_extent = [](const gpu::Light& l) {
+      return l.type == gpu::LIGHT_DISTANT || l.type == gpu::LIGHT_INFINITE_UNIFORM;
+    };
+    double bounded_power = 0.0;
+    int n_inf = 0;
+    for (std::size_t i = 0; i < t.lights.size(); ++i) {
+      if (infinite_extent(t.lights[i]))
+        n_inf += power[i] > 0.0;
+      else
+        bounded_power += power[i];
+    }
+    if (n_inf > 0) {
+      const int shares = n_inf + (bounded_power > 0.0 ? 1 : 0);
+      for (std::size_t i = 0; i < t.lights.size(); ++i)
+        power[i] = infinite_extent(t.lights[i])
+                       ? (power[i] > 0.0 ? 1.0 / shares : 0.0)
+                       : (bounded_power > 0.0 ? power[i] / bounded_power / shares : 0.0);
+    }
     if (t.lights.empty()) {
       t.light_cdf = {0.0f};
     } else {

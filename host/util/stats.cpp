@@ -60,6 +60,7 @@ std::string to_json(const RenderStats& st) {
   o << "  \"samples_per_second\": " << number(st.samples_per_second) << ",\n";
   o << "  \"rays_per_second\": " << number(st.rays_per_second) << ",\n";
   o << "  \"rays\": " << st.rays << ",\n";
+  o << "  \"nonfinite_samples\": " << st.nonfinite_samples << ",\n";
   o << "  \"peak_rss_bytes\": " << st.peak_rss_bytes << ",\n";
   o << "  \"triangles\": " << st.triangles << ",\n";
   o << "  \"spheres\": " << st.spheres << ",\n";

@@ -24,11 +24,11 @@ double since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-/// A multiplier coprime with \p n near n * 0.618, so that consecutive invocations touch
-/// pixels spread over the whole image (lavapipe gives each thread a contiguous chunk of
-/// workgroups; shuffling balances expensive regions). The product (n-1) * stride must
-/// fit in 32 bits (shader contract), so the stride is capped.
-std::uint32_t pixel_stride(std::uint32_t n) {
+/// A multiplier coprime with \p n near n * 0.618, so that consecutive tiles of the dispatch
+/// land all over the image (lavapipe gives each thread a contiguous chunk of workgroups;
+/// shuffling balances expensive regions). The product (n-1) * stride must fit in 32 bits
+/// (shader contract), so the stride is capped.
+std::uint32_t tile_stride(std::uint32_t n) {
   if (n <= 2) return 1;
   std::uint64_t cap = std::max<std::uint64_t>(1, (0xffffffffull / (n - 1)));
   std::uint64_t s = std::min<std::uint64_t>(cap, std::uint64_t(n * 0.6180339887) | 1u);
@@ -45,7 +45,10 @@ const char* kTableNames[] = {"globals", "BVH nodes", "primitive refs", "triangle
 
 GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t features)
     : ctx_(ctx), width_(t.width()), height_(t.height()) {
-  stride_ = pixel_stride(width_ * height_);
+  // Invocations cover 8x8 pixel tiles (one workgroup each): slots_ is the tile-padded count.
+  const std::uint32_t tiles = ((width_ + 7) / 8) * ((height_ + 7) / 8);
+  slots_ = tiles * 64;
+  stride_ = tile_stride(tiles);
   auto t0 = Clock::now();
   auto usage = vk::BufferUsageFlagBits::eStorageBuffer;
   struct Src {
@@ -87,7 +90,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   for (auto& b : tables_) bindings.push_back(&b);
   render_ = make_pipeline(render_spv, sizeof(render_spv), features, bindings);
   // lavapipe compiles at first dispatch: an empty pass makes that cost part of pipeline time.
-  dispatch(render_, gpu::PassConstants{0, 0, 0, 0, stride_, width_ * height_, 0, 0}, 1);
+  dispatch(render_, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, 0}, 1);
   seconds_pipeline = since(t0);
 }
 
@@ -169,34 +172,39 @@ void GpuRenderer::dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint3
   // The device counts rays in 32 bits per pass; the host keeps the 64-bit total.
   auto* counters = static_cast<std::uint32_t*>(tables_[BINDING_COUNTERS].mapped);
   rays_ += counters[0];
-  counters[0] = 0;
+  nonfinite_ += counters[1];
+  counters[0] = counters[1] = 0;
 }
 
 void GpuRenderer::render(std::uint32_t sample_start, std::uint32_t count,
                          const std::function<void(double)>& progress, double seconds_per_pass) {
-  const std::uint32_t total = width_ * height_;
+  // Work is counted in invocation slots (pixels, padded to whole 8x8 tiles) times samples.
+  const std::uint32_t total = slots_;
   const double work = double(total) * count;
   double done = 0.0;
   std::uint32_t s = sample_start;
   const std::uint32_t end = sample_start + count;
-  std::uint32_t pixel = 0;  // next pixel (in shuffled order) of the current sample block
+  std::uint32_t slot = 0;  // next slot (in shuffled tile order) of the current sample block
   while (s < end) {
     // Size the pass from the measured rate; the first pass is small to measure it.
     double units = units_per_second_ > 0 ? units_per_second_ * seconds_per_pass : 4096.0;
-    std::uint32_t samples = 1, pixels = total - pixel;
-    if (pixel == 0 && units >= 2.0 * total)
+    std::uint32_t samples = 1, slots = total - slot;
+    if (slot == 0 && units >= 2.0 * total) {
       samples = std::uint32_t(std::min<double>(end - s, std::floor(units / total)));
-    else
-      pixels = std::uint32_t(std::min<double>(total - pixel, std::max(64.0, units)));
-    gpu::PassConstants pc{s, samples, pixel, pixels, stride_, total, 0, 0};
+    } else {
+      // Whole tiles, at least one.
+      double tiles = std::max(1.0, std::floor(units / 64.0));
+      slots = std::uint32_t(std::min<double>(total - slot, tiles * 64.0));
+    }
+    gpu::PassConstants pc{s, samples, slot, slots, stride_, total, 0, 0};
     auto t0 = Clock::now();
-    dispatch(render_, pc, pixels);
-    double dt = since(t0), u = double(pixels) * samples;
+    dispatch(render_, pc, slots);
+    double dt = since(t0), u = double(slots) * samples;
     units_per_second_ = dt > 0 ? u / dt : units_per_second_;
     done += u;
-    pixel += pixels;
-    if (pixel >= total) {
-      pixel = 0;
+    slot += slots;
+    if (slot >= total) {
+      slot = 0;
       s += samples;
     }
     if (progress) progress(done / work);
@@ -213,7 +221,7 @@ std::vector<glm::vec4> GpuRenderer::accum() const {
 void GpuRenderer::clear() {
   Buffer& b = tables_[BINDING_ACCUM];
   std::memset(b.mapped, 0, b.size);
-  rays_ = 0;
+  rays_ = nonfinite_ = 0;
 }
 
 std::vector<gpu::ProbeOut> GpuRenderer::probe(const std::vector<gpu::ProbeIn>& queries) {

@@ -34,6 +34,8 @@ class GpuRenderer {
   std::vector<glm::vec4> accum() const;
   /// \brief Rays traced (camera, continuation and shadow rays) since construction or clear().
   std::uint64_t rays() const { return rays_; }
+  /// \brief Samples dropped because their radiance was NaN or infinite (path-spec section 9).
+  std::uint64_t nonfinite_samples() const { return nonfinite_; }
   /// \brief Zeroes the accumulation buffer and the ray count.
   void clear();
   /// \brief Runs shaders/tests/probe.comp over \p queries (GPU twin of basalt::cpu::probe).
@@ -58,10 +60,11 @@ class GpuRenderer {
 
   Context& ctx_;
   std::uint32_t width_, height_;
-  std::uint32_t stride_;  // pixel shuffle multiplier, coprime with the pixel count
+  std::uint32_t slots_;   // invocation slots: pixels padded to whole 8x8 tiles
+  std::uint32_t stride_;  // tile shuffle multiplier, coprime with the tile count
   std::vector<Buffer> tables_;  // indexed by BINDING_*
   Pipeline render_{};
-  std::uint64_t rays_ = 0;
+  std::uint64_t rays_ = 0, nonfinite_ = 0;
   double units_per_second_ = 0.0;  // measured pixel-samples per second
 };
 

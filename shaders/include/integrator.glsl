@@ -39,6 +39,7 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
   float pdf_prev = 0.0;
   vec3 p_prev = ray.o;
   vec3 ng_prev = vec3(0.0);
+  float m_prev = 0.0;
   uint depth = 0u;
   uint max_depth = globals.image.z;
   uint num_lights = globals.counts.x;
@@ -58,7 +59,8 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
       if (any_positive(Le)) {
         float w = 1.0;
         if (!(depth == 0u || specular)) {
-          float pl = lights[sp.light].pmf * light_pdf(sp.light, p_prev, ng_prev, sp.p, sp.ng, ray.d);
+          float pl = lights[sp.light].pmf *
+                     light_pdf(sp.light, p_prev, ng_prev, m_prev, sp.p, sp.ng, ray.d);
           w = power_heuristic(pdf_prev, pl);
         }
         L += beta * w * Le;
@@ -76,13 +78,13 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
       uint li = light_select(rng(px, py, s, dim + DIM_LIGHT_SELECT), num_lights);
       float pmf = lights[li].pmf;
       vec2 ul = vec2(rng(px, py, s, dim + DIM_LIGHT_U0), rng(px, py, s, dim + DIM_LIGHT_U1));
-      LightSample ls = light_sample(li, sp.p, sp.ng, ul);
+      LightSample ls = light_sample(li, sp.p, sp.ng, sp.m, ul);
       if (ls.pdf > 0.0 && pmf > 0.0 && any_positive(ls.Li)) {
         vec3 wi_l = to_local(sp, ls.wi);
         vec3 f = bsdf_eval(bsdf, wo_l, wi_l) * abs(dot(ls.wi, sp.ns));
         bool lit = false;
         if (any_positive(f)) {
-          lit = !intersect_any(shadow_ray(sp.p, sp.ng, ls));
+          lit = !intersect_any(shadow_ray(sp.p, sp.ng, sp.m, ls));
           ++rays;
         }
         if (lit) {
@@ -107,7 +109,8 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
     specular = (bs.flags & BSDF_SPECULAR) != 0u;
     p_prev = sp.p;
     ng_prev = sp.ng;
-    ray = spawn_ray(sp.p, sp.ng, wi);
+    m_prev = sp.m;
+    ray = spawn_ray(sp.p, sp.ng, sp.m, wi);
 
     // Russian roulette (pbrt-v4 13.4.2).
     float bmax = max_component(beta);
@@ -117,9 +120,6 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
       beta /= 1.0 - q;
     }
   }
-  // A NaN or infinity (only from degenerate input) would poison the pixel: drop the sample,
-  // as the CPU reference does.
-  if (any(isnan(L)) || any(isinf(L))) return vec3(0.0);
   return L;
 }
 

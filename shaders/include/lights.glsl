@@ -16,7 +16,8 @@ const float SPHERE_SMALL_SIN2 = 0.00068523;
 
 // A light sample at a shading point: incident direction wi (unit, towards the light),
 // radiance Li arriving along it, solid-angle pdf (1 for delta lights), and what the shadow
-// ray aims at: the point q (normal nl for area lights) or, when at_infinity, direction wi.
+// ray aims at: the point q (normal nl and magnitude bound m of the light primitive for area
+// lights) or, when at_infinity, direction wi.
 struct LightSample {
   vec3 Li;
   float pdf;
@@ -26,6 +27,7 @@ struct LightSample {
   bool at_infinity;
   vec3 nl;
   bool area;
+  float m;
 };
 
 // Index of the light picked by u: the largest i < n with light_cdf[i] <= u (binary search of
@@ -54,15 +56,14 @@ float sphere_one_minus_cos_max(float r2, float d2, out float sin2_max) {
   return sin2_max < SPHERE_SMALL_SIN2 ? sin2_max / 2.0 : one_minus;
 }
 
-// Whether sphere-light sampling from shading point p (geometric normal ng; 0 for a point in
-// space) takes the inside (area-sampling) branch. DEVIATION from docs/path-spec.md section 6,
-// shared with the CPU reference (host/cpu/lights.cpp) and reported to the lead: the spec
-// tests |p - c|^2 <= r^2, which for a shading point on the light sphere itself is decided by
-// rounding, and the cone branch then degenerates. pbrt-v4 Sphere::Sample/PDF test
-// ctx.OffsetRayOrigin(pCenter) instead: here offset_ray(p) towards the centre with the
-// continuation rule of section 5. With ng = 0 this is the spec's test.
-bool sphere_ref_inside(vec3 p, vec3 ng, vec3 c, float r2) {
-  vec3 po = offset_ray(p, dot(c - p, ng) > 0.0 ? ng : -ng);
+// Whether sphere-light sampling from shading point p (geometric normal ng, magnitude bound
+// m; ng = 0 for a point in space) takes the inside (area-sampling) branch
+// (docs/path-spec.md section 6): as pbrt-v4 Sphere::Sample/PDF test
+// ctx.OffsetRayOrigin(pCenter), the test is made on offset_ray(p) towards the centre, so a
+// shading point on the light sphere itself counts as inside rather than by rounding. With
+// ng = 0 this is |p - c|^2 <= r^2.
+bool sphere_ref_inside(vec3 p, vec3 ng, float m, vec3 c, float r2) {
+  vec3 po = offset_ray(p, dot(c - p, ng) > 0.0 ? ng : -ng, m);
   vec3 pc = po - c;
   return dot(pc, pc) <= r2;
 }
@@ -77,10 +78,10 @@ float area_to_solid_angle(vec3 p, vec3 q, vec3 nl, vec3 wi, float area) {
   return pdf <= FLT_MAX ? pdf : 0.0;  // an overflow to infinity counts as no sample
 }
 
-// Samples light li from shading point p (geometric normal ng, or 0 for a point in space) with
-// u = (u0, u1) (docs/path-spec.md section 6; ng only decides a sphere light's inside test).
-// pdf = 0 means no sample.
-LightSample light_sample(uint li, vec3 p, vec3 ng, vec2 u) {
+// Samples light li from shading point p (geometric normal ng, or 0 for a point in space;
+// magnitude bound m) with u = (u0, u1) (docs/path-spec.md section 6; ng and m only decide a
+// sphere light's inside test). pdf = 0 means no sample.
+LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
   LightSample ls;
   ls.Li = vec3(0.0);
   ls.pdf = 0.0;
@@ -90,6 +91,7 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, vec2 u) {
   ls.at_infinity = false;
   ls.nl = vec3(0.0, 0.0, 1.0);
   ls.area = false;
+  ls.m = 0.0;
   uint type = lights[li].type;
   vec3 L = lights[li].L.rgb;
   switch (type) {
@@ -133,7 +135,7 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, vec2 u) {
     case LIGHT_AREA_TRIANGLE:
       if ((FEATURES & FEATURE_LIGHT_AREA) != 0u && (FEATURES & FEATURE_TRIANGLES) != 0u) {
         vec3 ns_unused;
-        triangle_geometry(lights[li].prim, uniform_triangle(u), ls.q, ls.nl, ns_unused);
+        triangle_geometry(lights[li].prim, uniform_triangle(u), ls.q, ls.nl, ns_unused, ls.m);
         vec3 dq = ls.q - p;
         if (dot(dq, dq) > 0.0) {
           ls.wi = safe_normalize(dq);
@@ -154,7 +156,7 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, vec2 u) {
         float r2 = r * r;
         if (!(r > 0.0)) break;
         vec3 nq;
-        bool inside = sphere_ref_inside(p, ng, c, r2);
+        bool inside = sphere_ref_inside(p, ng, m, c, r2);
         if (inside) {
           // Inside: uniform area sampling (pbrt-v4 Sphere::Sample(u)).
           nq = uniform_sphere(u);
@@ -179,7 +181,9 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, vec2 u) {
           nq = -(w.x * t1 + w.y * t2 + w.z * z);
           ls.pdf = one_minus > 0.0 ? 1.0 / (2.0 * PI * one_minus) : 0.0;
         }
-        ls.q = c + r * nq;
+        precise vec3 q = c + r * nq;
+        ls.q = q;
+        ls.m = sphere_bound(cr);
         ls.nl = sphere_normal(sph, nq);
         vec3 dq = ls.q - p;
         if (dot(dq, dq) > 0.0) {
@@ -199,10 +203,10 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, vec2 u) {
 }
 
 // Solid-angle pdf with which light_sample of area light li, called at p_prev (geometric
-// normal ng_prev), would produce the point q (normal nl) that a ray from p_prev in unit
-// direction wi hit (MIS weight of an emitting hit, docs/path-spec.md section 7; pbrt-v4
-// PDF_Li). Not multiplied by the pmf.
-float light_pdf(uint li, vec3 p_prev, vec3 ng_prev, vec3 q, vec3 nl, vec3 wi) {
+// normal ng_prev, magnitude bound m_prev), would produce the point q (normal nl) that a ray
+// from p_prev in unit direction wi hit (MIS weight of an emitting hit, docs/path-spec.md
+// section 7; pbrt-v4 PDF_Li). Not multiplied by the pmf.
+float light_pdf(uint li, vec3 p_prev, vec3 ng_prev, float m_prev, vec3 q, vec3 nl, vec3 wi) {
   uint type = lights[li].type;
   if (type == LIGHT_AREA_TRIANGLE && (FEATURES & FEATURE_TRIANGLES) != 0u) {
     return area_to_solid_angle(p_prev, q, nl, wi, lights[li].params.x);
@@ -212,7 +216,7 @@ float light_pdf(uint li, vec3 p_prev, vec3 ng_prev, vec3 q, vec3 nl, vec3 wi) {
     vec3 pc = p_prev - cr.xyz;
     float d2 = dot(pc, pc);
     float r2 = cr.w * cr.w;
-    if (sphere_ref_inside(p_prev, ng_prev, cr.xyz, r2))
+    if (sphere_ref_inside(p_prev, ng_prev, m_prev, cr.xyz, r2))
       return area_to_solid_angle(p_prev, q, nl, wi, 4.0 * PI * cr.w * cr.w);
     float sin2_max;
     float one_minus = sphere_one_minus_cos_max(r2, d2, sin2_max);
@@ -221,14 +225,15 @@ float light_pdf(uint li, vec3 p_prev, vec3 ng_prev, vec3 q, vec3 nl, vec3 wi) {
   return 0.0;
 }
 
-// Shadow ray from shading point p (geometric normal ng) towards a light sample
-// (docs/path-spec.md section 5): to infinity along wi, else to q (offset off the light's
-// surface for area lights) with tmax = 1 - 1e-4 on the unnormalised direction.
-Ray shadow_ray(vec3 p, vec3 ng, LightSample ls) {
-  vec3 o = offset_ray(p, dot(ls.wi, ng) > 0.0 ? ng : -ng);
+// Shadow ray from shading point p (geometric normal ng, magnitude bound m) towards a light
+// sample (docs/path-spec.md section 5): to infinity along wi, else to q (for area lights
+// offset off the light's surface with the light primitive's bound ls.m) with
+// tmax = 1 - 1e-4 on the unnormalised direction.
+Ray shadow_ray(vec3 p, vec3 ng, float m, LightSample ls) {
+  vec3 o = offset_ray(p, dot(ls.wi, ng) > 0.0 ? ng : -ng, m);
   if (ls.at_infinity) return Ray(o, FLT_MAX, ls.wi);
   vec3 target = ls.q;
-  if (ls.area) target = offset_ray(ls.q, dot(o - ls.q, ls.nl) > 0.0 ? ls.nl : -ls.nl);
+  if (ls.area) target = offset_ray(ls.q, dot(o - ls.q, ls.nl) > 0.0 ? ls.nl : -ls.nl, ls.m);
   return Ray(o, 1.0 - 1e-4, target - o);
 }
 

@@ -17,11 +17,19 @@ float max_component(vec3 v) { return max(v.x, max(v.y, v.z)); }
 // True if some component is positive (pbrt-v4 "bool(SampledSpectrum)").
 bool any_positive(vec3 v) { return v.x > 0.0 || v.y > 0.0 || v.z > 0.0; }
 
+// dot(a, b) spelled out as (a.x b.x + a.y b.y) + a.z b.z (the CPU's order) and precise:
+// glslang does not put NoContraction on OpDot, so a precise dot() could still become fmas.
+float dot_exact(vec3 a, vec3 b) {
+  precise float d = a.x * b.x + a.y * b.y + a.z * b.z;
+  return d;
+}
+
 // v / |v|, or the zero vector when |v| is 0 (never NaN). Every normalisation in the shaders
-// goes through here: spelled out as v / sqrt(dot(v, v)) rather than the driver's normalize()
-// (which may use an approximate reciprocal square root), so that it rounds like the CPU.
+// goes through here: v / sqrt(dot(v, v)) as docs/path-spec.md fixes it, rather than the
+// driver's normalize() (which may use an approximate reciprocal square root), with an
+// uncontracted dot product, so that it rounds like the CPU.
 vec3 safe_normalize(vec3 v) {
-  float l2 = dot(v, v);
+  float l2 = dot_exact(v, v);
   return l2 > 0.0 ? v / sqrt(l2) : vec3(0.0);
 }
 

@@ -35,7 +35,7 @@ using mat4 = glm::mat4;
 #define BINDING_LIGHT_CDF 9
 #define BINDING_FILTER_CDF 10
 #define BINDING_ACCUM 11
-#define BINDING_COUNTERS 12  // uint counters[]: [0] rays traced (atomicAdd once per invocation)
+#define BINDING_COUNTERS 12  // uint counters[]: [0] rays traced, [1] non-finite samples dropped
 #define BINDING_COUNT 13
 
 // Probe shaders (tests) add their input and output tables to the same set.
@@ -173,10 +173,10 @@ struct Light {
 struct PassConstants {
   uint sample_start;
   uint sample_count;
-  uint pixel_offset;  // first index into the shuffled pixel order
-  uint pixel_count;
-  uint pixel_stride;  // shuffle: pixel = (i * pixel_stride) % pixel_total, stride coprime
-  uint pixel_total;
+  uint pixel_offset;  // first invocation slot of this pass (slots: 8x8 tiles of 64, shuffled)
+  uint pixel_count;   // slots in this pass
+  uint pixel_stride;  // tile shuffle: tile' = (tile * stride) % (pixel_total / 64), coprime
+  uint pixel_total;   // all slots: the tile count times 64
   uint pad0;
   uint pad1;
 };

@@ -47,7 +47,7 @@ void main() {
       r.u.y = INVALID_INDEX;
       if (h.prim != INVALID_INDEX) {
         SurfacePoint sp = surface_point(ray, h);
-        Hit h2 = intersect_closest(spawn_ray(sp.p, sp.ng, q.extra.xyz));
+        Hit h2 = intersect_closest(spawn_ray(sp.p, sp.ng, sp.m, q.extra.xyz));
         r.f1 = hit_record(h2);
         r.u.y = h2.prim;
       }

@@ -21,9 +21,11 @@ namespace {
 
 constexpr std::uint32_t kSpp = 8;  // samples per pixel of one timed render
 
-/// The shared Vulkan context of the benchmark.
+std::unique_ptr<basalt::vkx::Context> g_context;
+
+/// The shared Vulkan context of the benchmark (destroyed at the end of main, not at exit).
 basalt::vkx::Context& context() {
-  static std::unique_ptr<basalt::vkx::Context> ctx;
+  auto& ctx = g_context;
   if (!ctx) {
     const char* dev = std::getenv("BASALT_BENCH_DEVICE");
     ctx = std::make_unique<basalt::vkx::Context>(dev ? dev : "lavapipe", false);
@@ -119,5 +121,6 @@ int main(int argc, char** argv) {
   register_all();
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
+  g_context.reset();
   return 0;
 }

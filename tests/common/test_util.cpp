@@ -20,8 +20,24 @@ std::string source_path(const std::string& relative) {
   return std::string(BASALT_SOURCE_DIR) + "/" + relative;
 }
 
+namespace {
+
+std::unique_ptr<vkx::Context> g_context;
+
+/// Destroys the shared context after the last test, before static destructors run: the
+/// Vulkan driver's own globals may be gone by then (destroying it at exit crashed).
+class GpuEnvironment : public ::testing::Environment {
+ public:
+  void TearDown() override { g_context.reset(); }
+};
+
+[[maybe_unused]] ::testing::Environment* const g_environment =
+    ::testing::AddGlobalTestEnvironment(new GpuEnvironment);
+
+}  // namespace
+
 vkx::Context& gpu_context() {
-  static std::unique_ptr<vkx::Context> ctx;
+  auto& ctx = g_context;
   if (!ctx) {
     const char* dev = std::getenv("BASALT_TEST_DEVICE");
     ctx = std::make_unique<vkx::Context>(dev ? dev : "lavapipe",
@@ -47,13 +63,16 @@ std::vector<glm::vec3> render(Side side, const SceneTables& tables, std::uint32_
   std::vector<glm::vec4> accum;
   if (side == Side::Cpu) {
     accum.assign(std::size_t(tables.width()) * tables.height(), glm::vec4(0.0f));
-    cpu::render(tables, 0, spp, accum);
+    std::uint64_t nonfinite = 0;
+    cpu::render(tables, 0, spp, accum, {}, &nonfinite);
+    EXPECT_EQ(nonfinite, 0u) << "CPU samples with NaN or infinite radiance";
   } else {
     auto& ctx = gpu_context();
     const std::size_t before = ctx.validation_errors();
     vkx::GpuRenderer gpu(ctx, tables);
     gpu.render(0, spp);
     accum = gpu.accum();
+    EXPECT_EQ(gpu.nonfinite_samples(), 0u) << "GPU samples with NaN or infinite radiance";
     EXPECT_EQ(ctx.validation_errors(), before) << "Vulkan validation errors";
   }
   return resolve(accum, int(tables.width()), int(tables.height())).pixels;
