@@ -461,3 +461,31 @@ TEST(Tables, FeatureNames) {
 
 }  // namespace
 }  // namespace basalt
+
+// Light selection follows pbrt-v4's BVHLightSampler top split: each infinite-extent light
+// gets 1 / (n_inf + 1), bounded lights share the rest by power (path-spec section 6).
+TEST(TablesLightSplit, InfiniteExtentLightsGetAnEqualShare) {
+  basalt::Scene s;
+  basalt::Light inf;
+  inf.kind = basalt::Light::Kind::Infinite;
+  inf.value = glm::vec3(100.0f);
+  basalt::Light dist;
+  dist.kind = basalt::Light::Kind::Distant;
+  dist.value = glm::vec3(0.5f);
+  basalt::Light p1, p2;
+  p1.kind = p2.kind = basalt::Light::Kind::Point;
+  p1.value = glm::vec3(1.0f);
+  p2.value = glm::vec3(3.0f);
+  s.lights = {inf, dist, p1, p2};
+  basalt::SceneTables t = basalt::build_tables(s);
+  ASSERT_EQ(t.lights.size(), 4u);
+  EXPECT_NEAR(t.lights[0].pmf, 1.0f / 3.0f, 1e-6f);
+  EXPECT_NEAR(t.lights[1].pmf, 1.0f / 3.0f, 1e-6f);
+  EXPECT_NEAR(t.lights[2].pmf, 1.0f / 3.0f * 0.25f, 1e-6f);
+  EXPECT_NEAR(t.lights[3].pmf, 1.0f / 3.0f * 0.75f, 1e-6f);
+  // Only infinite-extent lights: equal shares, whatever their power.
+  s.lights = {inf, dist};
+  t = basalt::build_tables(s);
+  EXPECT_NEAR(t.lights[0].pmf, 0.5f, 1e-6f);
+  EXPECT_NEAR(t.lights[1].pmf, 0.5f, 1e-6f);
+}
