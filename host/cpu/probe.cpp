@@ -48,6 +48,12 @@ std::vector<gpu::ProbeOut> probe(const SceneTables& scene, const std::vector<gpu
         o.f1 = glm::vec4(c.d, 0.0f);
         break;
       }
+      case gpu::PROBE_CAMERA_DIFF: {
+        const CameraRay c = camera_ray_differential(scene, q.key.y, q.key.z, q.key.w);
+        o.f0 = glm::vec4(c.rx_d, 0.0f);
+        o.f1 = glm::vec4(c.ry_d, 0.0f);
+        break;
+      }
       default:
         break;
     }

@@ -191,6 +191,9 @@ BASALT_CONST uint PROBE_RNG = 3u;       // in: key.yzw = px, py, sample; extra.x
                                         //    bits) -> out: f0.x = rng value
 BASALT_CONST uint PROBE_CAMERA = 4u;    // in: key.yzw = px, py, sample -> out: f0 = origin,
                                         //    f1 = direction of the camera ray
+BASALT_CONST uint PROBE_CAMERA_DIFF = 5u;  // in: key.yzw = px, py, sample -> out: f0.xyz =
+                                           //    rx direction, f1.xyz = ry direction of the
+                                           //    camera ray's differentials; f0.w, f1.w unused
 
 /// One probe query.
 struct ProbeIn {

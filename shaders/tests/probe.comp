@@ -62,6 +62,12 @@ void main() {
       r.f1 = vec4(cr.d, 0.0);
       break;
     }
+    case PROBE_CAMERA_DIFF: {
+      CameraRay cr = camera_ray(q.key.y, q.key.z, q.key.w);
+      r.f0 = vec4(cr.rx_d, 0.0);
+      r.f1 = vec4(cr.ry_d, 0.0);
+      break;
+    }
     default:
       break;
   }

@@ -688,6 +688,39 @@ TEST(CpuCamera, PinholeAndThinLens) {
   }
 }
 
+// The differentials (spec section 2 step 6) share the ray's filter and lens sample: the main
+// ray is camera_ray's bit for bit, the differential origins are the ray's lens point, and each
+// differential ray is one pixel over on the z = 1 plane (pinhole) or the focal plane (thin lens).
+TEST(CpuCamera, DifferentialsShareTheSample) {
+  TestScene s(4, 2);
+  s.t.globals.screen = glm::vec4(-2.0f, 2.0f, -1.0f, 1.0f);
+  s.finish();
+  for (float lens_radius : {0.0f, 0.2f}) {
+    s.t.globals.lens = glm::vec4(0.5f, lens_radius, 3.0f, 0.0f);
+    s.t.globals.world_from_camera = glm::mat4(1.0f);
+    s.t.globals.world_from_camera[3] = glm::vec4(1.0f, 2.0f, 3.0f, 1.0f);
+    for (std::uint32_t k = 0; k < 32; ++k) {
+      const Ray r = camera_ray(s.t, 1, 1, k);
+      const CameraRay c = camera_ray_differential(s.t, 1, 1, k);
+      EXPECT_EQ(c.o, r.o);
+      EXPECT_EQ(c.d, r.d);
+      EXPECT_EQ(c.rx_o, c.o);
+      EXPECT_EQ(c.ry_o, c.o);
+      EXPECT_NEAR(glm::length(c.rx_d), 1.0f, 1e-6f);
+      EXPECT_NEAR(glm::length(c.ry_d), 1.0f, 1e-6f);
+      // One pixel is 4 / 4 * tanHalf = 0.5 on the z = 1 plane in x, 2 / 2 * 0.5 in y; with a
+      // thin lens the step is measured on the focal plane (z = 3), where it is 3 times that.
+      const float scale = lens_radius > 0.0f ? 3.0f : 1.0f;
+      auto at = [&](glm::vec3 o, glm::vec3 d) { return o + (scale / d.z) * d; };
+      const glm::vec3 p = at(c.o, c.d), px = at(c.rx_o, c.rx_d), py = at(c.ry_o, c.ry_d);
+      EXPECT_NEAR(px.x - p.x, 0.5f * scale, 1e-5f);
+      EXPECT_NEAR(px.y - p.y, 0.0f, 1e-5f);
+      EXPECT_NEAR(py.x - p.x, 0.0f, 1e-5f);
+      EXPECT_NEAR(py.y - p.y, -0.5f * scale, 1e-5f);
+    }
+  }
+}
+
 TEST(CpuCamera, GaussianTableSampling) {
   TestScene s(8, 8);
   const std::uint32_t N = 4;
@@ -763,7 +796,7 @@ TEST(CpuProbe, AnswersEveryOp) {
   const std::uint32_t m = s.diffuse(glm::vec3(0.5f));
   s.sphere(glm::vec3(0, 0, 5), 1.0f, m);
   s.finish();
-  std::vector<gpu::ProbeIn> in(6);
+  std::vector<gpu::ProbeIn> in(7);
   in[0] = {glm::uvec4(gpu::PROBE_CLOSEST, 0, 0, 0), glm::vec4(0, 0, 0, FLT_MAX), glm::vec4(0, 0, 1, 0), glm::vec4(0)};
   in[1] = {glm::uvec4(gpu::PROBE_CLOSEST, 0, 0, 0), glm::vec4(0, 0, 0, FLT_MAX), glm::vec4(0, 1, 0, 0), glm::vec4(0)};
   in[2] = {glm::uvec4(gpu::PROBE_OCCLUDED, 0, 0, 0), glm::vec4(0, 0, 0, 3.9f), glm::vec4(0, 0, 1, 0), glm::vec4(0)};
@@ -772,6 +805,7 @@ TEST(CpuProbe, AnswersEveryOp) {
   in[4] = {glm::uvec4(gpu::PROBE_RNG, 5, 6, 7), glm::vec4(0), glm::vec4(0),
            glm::vec4(std::bit_cast<float>(21u), 0, 0, 0)};
   in[5] = {glm::uvec4(gpu::PROBE_CAMERA, 8, 8, 3), glm::vec4(0), glm::vec4(0), glm::vec4(0)};
+  in[6] = {glm::uvec4(gpu::PROBE_CAMERA_DIFF, 8, 8, 3), glm::vec4(0), glm::vec4(0), glm::vec4(0)};
   const std::vector<gpu::ProbeOut> out = probe(s.t, in);
   ASSERT_EQ(out.size(), in.size());
   EXPECT_NEAR(out[0].f0.x, 4.0f, 1e-5f);
@@ -786,4 +820,7 @@ TEST(CpuProbe, AnswersEveryOp) {
   const Ray c = camera_ray(s.t, 8, 8, 3);
   EXPECT_EQ(glm::vec3(out[5].f0), c.o);
   EXPECT_EQ(glm::vec3(out[5].f1), c.d);
+  const CameraRay cd = camera_ray_differential(s.t, 8, 8, 3);
+  EXPECT_EQ(out[6].f0, glm::vec4(cd.rx_d, 0.0f));
+  EXPECT_EQ(out[6].f1, glm::vec4(cd.ry_d, 0.0f));
 }

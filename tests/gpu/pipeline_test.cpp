@@ -63,3 +63,28 @@ TEST(Specialisation, FeatureSetOfEachScene) {
 
 }  // namespace
 }  // namespace basalt::test
+
+namespace basalt::test {
+namespace {
+
+// A table beyond the device's maxStorageBufferRange is refused with a message naming the
+// table and the limit, before anything is allocated (splitting arrives with the hardening
+// issue; until then a clear error, never a silently truncated binding).
+TEST(Limits, OversizedTableIsAClearError) {
+  auto& ctx = gpu_context();
+  const std::uint64_t limit = ctx.info().max_storage_buffer_range;
+  if (limit > (std::uint64_t(1) << 30)) GTEST_SKIP() << "device limit too large to exceed cheaply";
+  SceneTables t = tables_from_file(source_path("scenes/spheres-lights.pbrt"), 8, 8);
+  t.vertices.resize(limit / sizeof(gpu::Vertex) + 1);
+  try {
+    vkx::GpuRenderer gpu(ctx, t);
+    FAIL() << "no error for a " << t.vertices.size() * sizeof(gpu::Vertex) << "-byte table";
+  } catch (const std::runtime_error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("vertices"), std::string::npos) << msg;
+    EXPECT_NE(msg.find(std::to_string(limit)), std::string::npos) << msg;
+  }
+}
+
+}  // namespace
+}  // namespace basalt::test

@@ -1,12 +1,13 @@
 // Numerical robustness of intersection and ray spawning, on both sides through the probe
 // interface (shaders/tests/probe.comp and its twin basalt::cpu::probe): no
 // self-intersection at any scale, watertight meshes, degenerate triangles, grazing rays;
-// and CPU/GPU agreement of the random numbers and camera rays.
+// and CPU/GPU agreement of the random numbers, camera rays and their differentials.
 #include <gtest/gtest.h>
 
 #include <bit>
 #include <cmath>
 #include <random>
+#include <string>
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -315,6 +316,92 @@ TEST(ProbeConformance, CameraRaysAgree) {
       ASSERT_NEAR(cpu[i].f1[k], gpu[i].f1[k], 1e-5f) << i;
     }
 }
+
+/// Camera queries of \p op over a grid of pixels (every third, plus the last row and
+/// column) and 4 samples each, for a 64x48 film.
+std::vector<gpu::ProbeIn> camera_queries(std::uint32_t op) {
+  std::vector<gpu::ProbeIn> q;
+  for (std::uint32_t y = 0; y < 48; y = y == 45 ? 47 : y + 3)  // 0, 3, ..., 45, 47
+    for (std::uint32_t x = 0; x < 64; x += 3)                    // 0, 3, ..., 63
+      for (std::uint32_t smp = 0; smp < 4; ++smp) {
+        gpu::ProbeIn in{};
+        in.key = glm::uvec4(op, x, y, smp);
+        q.push_back(in);
+      }
+  return q;
+}
+
+// Camera ray differentials (spec section 2 step 6) agree between the sides, for a thin-lens
+// camera with a gaussian filter and a rotated, translated pinhole camera with a box filter.
+TEST(ProbeConformance, CameraDifferentialsAgree) {
+  for (bool thin_lens : {true, false}) {
+    SCOPED_TRACE(thin_lens ? "thin lens" : "pinhole");
+    Scene s = empty_scene();
+    s.film.xres = 64;
+    s.film.yres = 48;
+    s.camera.fov_deg = 50.0f;
+    if (thin_lens) {
+      s.camera.lens_radius = 0.1f;
+      s.camera.focal_distance = 5.0f;
+      s.filter.type = Filter::Type::Gaussian;
+    } else {
+      s.camera.world_from_camera =
+          glm::rotate(glm::translate(glm::mat4(1.0f), glm::vec3(1.0f, -2.0f, 3.0f)), 0.7f,
+                      glm::normalize(glm::vec3(1.0f, 2.0f, -0.5f)));
+    }
+    SceneTables t = build_tables(s);
+    const std::vector<gpu::ProbeIn> q = camera_queries(gpu::PROBE_CAMERA_DIFF);
+    auto cpu = probe(Side::Cpu, t, q), gpu = probe(Side::Gpu, t, q);
+    ASSERT_EQ(cpu.size(), q.size());
+    ASSERT_EQ(gpu.size(), q.size());
+    for (std::size_t i = 0; i < q.size(); ++i) {
+      ASSERT_NEAR(glm::length(glm::vec3(cpu[i].f0)), 1.0f, 1e-6f) << i;
+      ASSERT_NEAR(glm::length(glm::vec3(cpu[i].f1)), 1.0f, 1e-6f) << i;
+      for (int k = 0; k < 3; ++k) {
+        ASSERT_NEAR(cpu[i].f0[k], gpu[i].f0[k], 1e-5f) << i;
+        ASSERT_NEAR(cpu[i].f1[k], gpu[i].f1[k], 1e-5f) << i;
+      }
+    }
+  }
+}
+
+class CameraDifferentials : public ::testing::TestWithParam<Side> {};
+
+// Pinhole 64x48, fov 50 on the shorter (y) axis, camera at the origin looking down +z with
+// up +y (Scene's default world_from_camera = identity): projected onto the z = 1 plane, the
+// rx direction is one pixel, 2 tan(fov/2) / 48, further in +x than the ray's, and the ry
+// direction one pixel further in -y (raster y goes down, screen y up); the other axis does
+// not move.
+TEST_P(CameraDifferentials, PinholeAnalytic) {
+  Scene s = empty_scene();
+  s.film.xres = 64;
+  s.film.yres = 48;
+  s.camera.fov_deg = 50.0f;
+  SceneTables t = build_tables(s);
+  const std::vector<gpu::ProbeIn> qc = camera_queries(gpu::PROBE_CAMERA);
+  const std::vector<gpu::ProbeIn> qd = camera_queries(gpu::PROBE_CAMERA_DIFF);
+  std::vector<gpu::ProbeIn> q = qc;
+  q.insert(q.end(), qd.begin(), qd.end());
+  const auto out = probe(GetParam(), t, q);
+  ASSERT_EQ(out.size(), q.size());
+  const double pixel = 2.0 * std::tan(25.0 * 3.14159265358979323846 / 180.0) / 48.0;
+  auto plane = [](const glm::vec4& d) { return glm::dvec2(d.x, d.y) / double(d.z); };
+  for (std::size_t i = 0; i < qc.size(); ++i) {
+    const gpu::ProbeOut& cam = out[i];
+    const gpu::ProbeOut& diff = out[qc.size() + i];
+    ASSERT_EQ(glm::vec3(cam.f0), glm::vec3(0.0f)) << i;  // pinhole origin
+    const glm::dvec2 p = plane(cam.f1), px = plane(diff.f0), py = plane(diff.f1);
+    const std::string where = "pixel (" + std::to_string(q[i].key.y) + ", " +
+                              std::to_string(q[i].key.z) + ") sample " + std::to_string(q[i].key.w);
+    EXPECT_NEAR(px.x - p.x, pixel, 1e-4 * pixel) << where;
+    EXPECT_NEAR(px.y - p.y, 0.0, 1e-4 * pixel) << where;
+    EXPECT_NEAR(py.x - p.x, 0.0, 1e-4 * pixel) << where;
+    EXPECT_NEAR(py.y - p.y, -pixel, 1e-4 * pixel) << where;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(BothSides, CameraDifferentials, ::testing::Values(Side::Cpu, Side::Gpu),
+                         [](const auto& info) { return side_name(info.param); });
 
 }  // namespace
 }  // namespace basalt::test
