@@ -27,6 +27,14 @@ struct Rand {
   float operator()() { return dist(gen); }
   glm::vec3 in_cube() { return glm::vec3((*this)(), (*this)(), (*this)()) * 2.0f - 1.0f; }
   glm::vec3 dir() { return uniform_sphere(glm::vec2((*this)(), (*this)())); }
+  /// Direction k of a respawn test around frame f: k < 6 uniform; else grazing, a tangent
+  /// direction tilted 1e-2 .. 1e-6 off the plane, above it for odd k, below for even k.
+  glm::vec3 respawn_dir(const Frame& f, int k) {
+    if (k < 6) return dir();
+    const float phi = 6.2831853f * (*this)();
+    const float eps = std::pow(10.0f, -2.0f - 4.0f * (*this)()) * (k % 2 ? 1.0f : -1.0f);
+    return glm::normalize(f.to_world(glm::vec3(std::cos(phi), std::sin(phi), eps)));
+  }
 };
 
 bool finite(glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
@@ -442,15 +450,7 @@ TEST(CpuSpawn, TrianglesNeverRehitThemselves) {
     const SurfacePoint sp = surface_point(s.t, ray, h);
     const Frame f = Frame::from_z(sp.g.ng);
     for (int k = 0; k < 12; ++k) {
-      glm::vec3 wi;
-      if (k < 6) {
-        wi = r.dir();
-      } else {
-        // Grazing: a tangent direction tilted by 1e-2 .. 1e-6 off the plane, either side.
-        const float phi = 6.2831853f * r();
-        const float eps = std::pow(10.0f, -2.0f - 4.0f * r()) * (k % 2 ? 1.0f : -1.0f);
-        wi = glm::normalize(f.to_world(glm::vec3(std::cos(phi), std::sin(phi), eps)));
-      }
+      const glm::vec3 wi = r.respawn_dir(f, k);
       const Hit h2 = intersect_closest(s.t, spawn_ray(sp.g.p, sp.g.ng, sp.g.m, wi));
       ASSERT_FALSE(h2.valid()) << "scale " << scale << " t " << h2.t << " dot " << glm::dot(wi, sp.g.ng);
       ++tested;
@@ -503,14 +503,7 @@ TEST(CpuSpawn, SpheresNeverRehitNearSide) {
     const glm::vec3 out = (sp.g.p - c) / radius;  // outward unit normal
     const Frame f = Frame::from_z(out);
     for (int k = 0; k < 12; ++k) {
-      glm::vec3 wi;
-      if (k < 6) {
-        wi = r.dir();
-      } else {
-        const float phi = 6.2831853f * r();
-        const float eps = std::pow(10.0f, -2.0f - 4.0f * r()) * (k % 2 ? 1.0f : -1.0f);
-        wi = glm::normalize(f.to_world(glm::vec3(std::cos(phi), std::sin(phi), eps)));
-      }
+      const glm::vec3 wi = r.respawn_dir(f, k);
       const Hit h2 = intersect_closest(s.t, spawn_ray(sp.g.p, sp.g.ng, sp.g.m, wi));
       const float cos_in = -glm::dot(wi, out);  // > 0: into the sphere
       if (cos_in <= 0.0f) {
@@ -598,14 +591,7 @@ TEST(CpuSpawn, TinySpheresAndFarGeometryNeverRehitThemselves) {
       const glm::vec3 out = sphere ? (sp.g.p - c) / radius : sp.g.ng;  // outward for spheres
       const Frame f = Frame::from_z(out);
       for (int k = 0; k < 12; ++k) {
-        glm::vec3 wi;
-        if (k < 6) {
-          wi = r.dir();
-        } else {
-          const float phi = 6.2831853f * r();
-          const float eps = std::pow(10.0f, -2.0f - 4.0f * r()) * (k % 2 ? 1.0f : -1.0f);
-          wi = glm::normalize(f.to_world(glm::vec3(std::cos(phi), std::sin(phi), eps)));
-        }
+        const glm::vec3 wi = r.respawn_dir(f, k);
         const Ray sr = spawn_ray(sp.g.p, sp.g.ng, sp.g.m, wi);
         const PrimHit self = intersect_prim(s.t, ref, sr.o, sr.d, sr.tmax);
         const float cos_in = -glm::dot(wi, out);  // > 0: into a sphere
