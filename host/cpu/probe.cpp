@@ -16,7 +16,7 @@ std::vector<gpu::ProbeOut> probe(const SceneTables& scene, const std::vector<gpu
   for (std::size_t i = 0; i < in.size(); ++i) {
     const gpu::ProbeIn& q = in[i];
     gpu::ProbeOut& o = out[i];
-    o = gpu::ProbeOut{glm::vec4(0.0f), glm::vec4(0.0f), glm::uvec4(0u)};
+    o = gpu::ProbeOut{};
     const Ray ray{glm::vec3(q.o_tmax), glm::vec3(q.d), q.o_tmax.w};
     switch (q.key.x) {
       case gpu::PROBE_CLOSEST:

@@ -41,7 +41,7 @@ gpu::Material diffuse_material(const glm::vec3& reflectance) {
   m.type = gpu::MATERIAL_DIFFUSE;
   for (auto& v : m.value) v = glm::vec4(0.0f);
   m.value[gpu::SLOT_DIFFUSE_REFLECTANCE] = glm::vec4(reflectance, 0.0f);
-  m.texture[0] = m.texture[1] = glm::uvec4(INVALID_INDEX);
+  for (auto& t : m.texture) t = glm::uvec4(INVALID_INDEX);
   return m;
 }
 

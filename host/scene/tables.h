@@ -22,6 +22,8 @@ struct SceneTables {
   std::vector<gpu::Light> lights;
   std::vector<float> light_cdf;   // lights.size() + 1 entries, cdf[0] = 0, cdf[n] = 1
   std::vector<float> filter_cdf;  // 2 (N + 1) entries for the gaussian filter, else empty
+  std::vector<float> measured;    // measured BRDF tables (MATERIAL_MEASURED aux0 offsets), rgb
+                                  // interleaved, scale factors applied; may be empty
   std::uint32_t features = 0;     // FEATURE_* bits
 
   std::uint32_t width() const { return globals.image.x; }

@@ -39,7 +39,8 @@ std::uint32_t tile_stride(std::uint32_t n) {
 
 const char* kTableNames[] = {"globals", "BVH nodes", "primitive refs", "triangles",
                              "vertices", "meshes",    "spheres",        "materials",
-                             "lights",   "light cdf", "filter table",   "accumulation", "counters"};
+                             "lights",   "light cdf", "filter table",   "accumulation", "counters",
+                             "measured BRDF"};
 
 }  // namespace
 
@@ -69,7 +70,9 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
       {t.light_cdf.data(), t.light_cdf.size() * sizeof(float)},
       {t.filter_cdf.data(), t.filter_cdf.size() * sizeof(float)},
       {nullptr, pixels * sizeof(glm::vec4)},
-      {nullptr, 4 * sizeof(std::uint32_t)}};
+      {nullptr, 4 * sizeof(std::uint32_t)},
+      // Always bound: an empty table gets a 16-byte buffer (zero-sized buffers are invalid).
+      {t.measured.data(), std::max<std::size_t>(16, t.measured.size() * sizeof(float))}};
   const std::uint64_t limit = ctx.info().max_storage_buffer_range;
   for (int i = 0; i < BINDING_COUNT; ++i)
     if (src[i].bytes > limit)
@@ -81,13 +84,14 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   for (int i = 0; i < BINDING_COUNT; ++i) {
     tables_[i] = ctx.create_buffer(src[i].bytes, usage);
     if (src[i].data && src[i].bytes) std::memcpy(tables_[i].mapped, src[i].data, src[i].bytes);
+    else if (tables_[i].mapped) std::memset(tables_[i].mapped, 0, src[i].bytes);
     device_bytes += tables_[i].size;
   }
   seconds_upload = since(t0);
 
   t0 = Clock::now();
-  std::vector<Buffer*> bindings;
-  for (auto& b : tables_) bindings.push_back(&b);
+  std::vector<std::pair<std::uint32_t, Buffer*>> bindings;
+  for (std::uint32_t i = 0; i < tables_.size(); ++i) bindings.push_back({i, &tables_[i]});
   render_ = make_pipeline(render_spv, sizeof(render_spv), features, bindings);
   // lavapipe compiles at first dispatch: an empty pass makes that cost part of pipeline time.
   dispatch(render_, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, 0}, 1);
@@ -102,12 +106,12 @@ GpuRenderer::~GpuRenderer() {
 
 GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std::size_t bytes,
                                                  std::uint32_t features,
-                                                 const std::vector<Buffer*>& bindings) {
+                                                 const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings) {
   auto& dev = ctx_.device;
   Pipeline p;
   std::vector<vk::DescriptorSetLayoutBinding> layout_bindings;
-  for (std::uint32_t i = 0; i < bindings.size(); ++i)
-    layout_bindings.push_back({.binding = i,
+  for (const auto& [binding, buffer] : bindings)
+    layout_bindings.push_back({.binding = binding,
                                .descriptorType = vk::DescriptorType::eStorageBuffer,
                                .descriptorCount = 1,
                                .stageFlags = vk::ShaderStageFlagBits::eCompute});
@@ -141,11 +145,12 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
   p.set = dev.allocateDescriptorSets(
       {.descriptorPool = p.pool, .descriptorSetCount = 1, .pSetLayouts = &p.set_layout})[0];
   std::vector<vk::DescriptorBufferInfo> infos;
-  for (auto* b : bindings) infos.push_back({.buffer = b->buffer, .offset = 0, .range = b->size});
+  for (const auto& [binding, b] : bindings)
+    infos.push_back({.buffer = b->buffer, .offset = 0, .range = b->size});
   std::vector<vk::WriteDescriptorSet> writes;
   for (std::uint32_t i = 0; i < infos.size(); ++i)
     writes.push_back({.dstSet = p.set,
-                      .dstBinding = i,
+                      .dstBinding = bindings[i].first,
                       .descriptorCount = 1,
                       .descriptorType = vk::DescriptorType::eStorageBuffer,
                       .pBufferInfo = &infos[i]});
@@ -229,10 +234,10 @@ std::vector<gpu::ProbeOut> GpuRenderer::probe(const std::vector<gpu::ProbeIn>& q
   Buffer in = ctx_.create_buffer(queries.size() * sizeof(gpu::ProbeIn), usage);
   Buffer out = ctx_.create_buffer(queries.size() * sizeof(gpu::ProbeOut), usage);
   if (!queries.empty()) std::memcpy(in.mapped, queries.data(), queries.size() * sizeof(gpu::ProbeIn));
-  std::vector<Buffer*> bindings;
-  for (auto& b : tables_) bindings.push_back(&b);
-  bindings.push_back(&in);
-  bindings.push_back(&out);
+  std::vector<std::pair<std::uint32_t, Buffer*>> bindings;
+  for (std::uint32_t i = 0; i < tables_.size(); ++i) bindings.push_back({i, &tables_[i]});
+  bindings.push_back({BINDING_PROBE_IN, &in});
+  bindings.push_back({BINDING_PROBE_OUT, &out});
   Pipeline p = make_pipeline(probe_spv, sizeof(probe_spv), 0xffffffffu, bindings);
   const std::uint32_t n = std::uint32_t(queries.size());
   dispatch(p, gpu::PassConstants{0, 1, 0, n, 1, n, 0, 0}, n);

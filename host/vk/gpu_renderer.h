@@ -3,6 +3,7 @@
 #pragma once
 #include <cstdint>
 #include <functional>
+#include <utility>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -54,7 +55,7 @@ class GpuRenderer {
     vk::DescriptorSet set;
   };
   Pipeline make_pipeline(const std::uint32_t* spirv, std::size_t bytes, std::uint32_t features,
-                         const std::vector<Buffer*>& bindings);
+                         const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings);
   void destroy_pipeline(Pipeline& p);
   void dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint32_t invocations);
 

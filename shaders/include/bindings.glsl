@@ -52,4 +52,8 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) restrict buffer CounterBuffe
   uint counters[];  // [0]: rays traced in this pass (one atomicAdd per invocation)
 };
 
+layout(std430, set = 0, binding = BINDING_MEASURED) restrict readonly buffer MeasuredBuffer {
+  float measured[];  // MERL half-angle tables, rgb interleaved (MATERIAL_MEASURED aux0)
+};
+
 #endif

@@ -7,11 +7,6 @@
 #include "sampling.glsl"
 #include "surface.glsl"
 
-// BSDF flags of a sample (pbrt-v4 BxDFFlags subset).
-const uint BSDF_REFLECTION = 1u;
-const uint BSDF_TRANSMISSION = 2u;
-const uint BSDF_DIFFUSE = 4u;
-const uint BSDF_SPECULAR = 8u;
 
 // The BSDF at a surface point: the material's type tag and its slot values evaluated there
 // (constants now; textures later issues).

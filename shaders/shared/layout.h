@@ -36,11 +36,13 @@ using mat4 = glm::mat4;
 #define BINDING_FILTER_CDF 10
 #define BINDING_ACCUM 11
 #define BINDING_COUNTERS 12  // uint counters[]: [0] rays traced, [1] non-finite samples dropped
-#define BINDING_COUNT 13
+#define BINDING_MEASURED 13  // float measured[]: tabulated BRDFs (MERL half-angle, rgb interleaved)
+#define BINDING_COUNT 14
 
-// Probe shaders (tests) add their input and output tables to the same set.
-#define BINDING_PROBE_IN 13
-#define BINDING_PROBE_OUT 14
+// Probe shaders (tests) add their input and output tables to the same set, well above the
+// scene bindings so that later issues can append scene tables without moving them.
+#define BINDING_PROBE_IN 30
+#define BINDING_PROBE_OUT 31
 
 // ---- feature bits (specialization constant 0 of the render pipeline) --------------------
 // The host derives the scene's feature set; the pipeline is specialised so that code for
@@ -56,7 +58,25 @@ BASALT_CONST uint FEATURE_MAT_DIFFUSE = 1u << 7;
 BASALT_CONST uint FEATURE_FILTER_GAUSSIAN = 1u << 8;
 BASALT_CONST uint FEATURE_THIN_LENS = 1u << 9;
 BASALT_CONST uint FEATURE_SHADING_NORMALS = 1u << 10;
-BASALT_CONST uint FEATURE_COUNT = 11u;
+// Material kinds (issue 3): one bit per MATERIAL_* tag other than diffuse.
+BASALT_CONST uint FEATURE_MAT_OREN_NAYAR = 1u << 11;
+BASALT_CONST uint FEATURE_MAT_CONDUCTOR = 1u << 12;
+BASALT_CONST uint FEATURE_MAT_DIELECTRIC = 1u << 13;
+BASALT_CONST uint FEATURE_MAT_THIN_DIELECTRIC = 1u << 14;
+BASALT_CONST uint FEATURE_MAT_DIFFUSE_TRANSMISSION = 1u << 15;
+BASALT_CONST uint FEATURE_MAT_COATED_DIFFUSE = 1u << 16;
+BASALT_CONST uint FEATURE_MAT_COATED_CONDUCTOR = 1u << 17;
+BASALT_CONST uint FEATURE_MAT_PLASTIC = 1u << 18;
+BASALT_CONST uint FEATURE_MAT_SUBSTRATE = 1u << 19;
+BASALT_CONST uint FEATURE_MAT_TRANSLUCENT = 1u << 20;
+BASALT_CONST uint FEATURE_MAT_UBER = 1u << 21;
+BASALT_CONST uint FEATURE_MAT_MEASURED = 1u << 22;
+BASALT_CONST uint FEATURE_MAT_MIX = 1u << 23;           // pbrt-v4 stochastic mix
+BASALT_CONST uint FEATURE_MAT_MIX_WEIGHTED = 1u << 24;  // pbrt-v2/v3 weighted mix
+BASALT_CONST uint FEATURE_MAT_INTERFACE = 1u << 25;
+BASALT_CONST uint FEATURE_MAT_MIRROR = 1u << 26;
+BASALT_CONST uint FEATURE_MAT_METAL = 1u << 27;
+BASALT_CONST uint FEATURE_COUNT = 28u;
 
 // ---- primitive references ------------------------------------------------------------
 // A BVH leaf covers prim_refs[a .. a+b). A ref is a triangle index, or a sphere index
@@ -66,10 +86,98 @@ BASALT_CONST uint PRIM_INDEX_MASK = 0x7fffffffu;
 BASALT_CONST uint INVALID_INDEX = 0xffffffffu;
 
 // ---- material tags ---------------------------------------------------------------------
-BASALT_CONST uint MATERIAL_DIFFUSE = 1u;
-BASALT_CONST uint MATERIAL_SLOTS = 8u;
-// Diffuse: slot 0 = reflectance (rgb).
+// One tag per material kind; docs/materials-spec.md section 3 says how each becomes lobes.
+// Each slot holds one parameter: rgb in xyz (a float parameter in x) and may be a texture.
+BASALT_CONST uint MATERIAL_NONE = 0u;           // no material: black, the path ends
+BASALT_CONST uint MATERIAL_DIFFUSE = 1u;        // pbrt-v4 diffuse
+BASALT_CONST uint MATERIAL_OREN_NAYAR = 2u;     // pbrt-v3 matte with sigma
+BASALT_CONST uint MATERIAL_CONDUCTOR = 3u;      // pbrt-v4 conductor
+BASALT_CONST uint MATERIAL_DIELECTRIC = 4u;     // pbrt-v4 dielectric, pbrt-v3 glass
+BASALT_CONST uint MATERIAL_THIN_DIELECTRIC = 5u;
+BASALT_CONST uint MATERIAL_DIFFUSE_TRANSMISSION = 6u;
+BASALT_CONST uint MATERIAL_COATED_DIFFUSE = 7u;
+BASALT_CONST uint MATERIAL_COATED_CONDUCTOR = 8u;
+BASALT_CONST uint MATERIAL_PLASTIC = 9u;        // pbrt-v3 plastic
+BASALT_CONST uint MATERIAL_SUBSTRATE = 10u;     // pbrt-v3 substrate
+BASALT_CONST uint MATERIAL_TRANSLUCENT = 11u;   // pbrt-v3 translucent
+BASALT_CONST uint MATERIAL_UBER = 12u;          // pbrt-v3 uber
+BASALT_CONST uint MATERIAL_MEASURED = 13u;      // pbrt-v2 measured (MERL half-angle table)
+BASALT_CONST uint MATERIAL_MIX = 14u;           // pbrt-v4 mix: stochastic choice
+BASALT_CONST uint MATERIAL_MIX_WEIGHTED = 15u;  // pbrt-v2/v3 mix: weighted sum of lobes
+BASALT_CONST uint MATERIAL_INTERFACE = 16u;     // pbrt-v4 interface: no surface, pass through
+BASALT_CONST uint MATERIAL_MIRROR = 17u;        // pbrt-v3 mirror
+BASALT_CONST uint MATERIAL_METAL = 18u;         // pbrt-v3 metal
+BASALT_CONST uint MATERIAL_TYPE_COUNT = 19u;
+BASALT_CONST uint MATERIAL_SLOTS = 16u;
+
+// Material.flags
+BASALT_CONST uint MATFLAG_REMAP_MASK = 3u;       // roughness -> alpha for every roughness slot:
+BASALT_CONST uint MATFLAG_REMAP_NONE = 0u;       //   alpha = roughness
+BASALT_CONST uint MATFLAG_REMAP_SQRT = 1u;       //   pbrt-v4: alpha = sqrt(roughness)
+BASALT_CONST uint MATFLAG_REMAP_V3 = 2u;         //   pbrt-v3 RoughnessToAlpha polynomial
+BASALT_CONST uint MATFLAG_BECKMANN = 1u << 2;    // microfacet lobes use Beckmann, not TR
+BASALT_CONST uint MATFLAG_USE_REFLECTANCE = 1u << 3;  // conductors: Fresnel from reflectance
+
+// Slots (index into Material.value / texture). Float parameters use x.
 BASALT_CONST uint SLOT_DIFFUSE_REFLECTANCE = 0u;
+BASALT_CONST uint SLOT_ON_REFLECTANCE = 0u, SLOT_ON_SIGMA = 1u;  // sigma in degrees
+BASALT_CONST uint SLOT_CONDUCTOR_ETA = 0u, SLOT_CONDUCTOR_K = 1u,
+                  SLOT_CONDUCTOR_REFLECTANCE = 2u, SLOT_CONDUCTOR_UROUGH = 3u,
+                  SLOT_CONDUCTOR_VROUGH = 4u;  // also pbrt-v3 metal
+BASALT_CONST uint SLOT_MIRROR_KR = 0u;
+BASALT_CONST uint SLOT_DIELECTRIC_ETA = 0u, SLOT_DIELECTRIC_UROUGH = 1u,
+                  SLOT_DIELECTRIC_VROUGH = 2u, SLOT_DIELECTRIC_KR = 3u, SLOT_DIELECTRIC_KT = 4u;
+BASALT_CONST uint SLOT_THIN_ETA = 0u;
+BASALT_CONST uint SLOT_DT_REFLECTANCE = 0u, SLOT_DT_TRANSMITTANCE = 1u, SLOT_DT_SCALE = 2u;
+BASALT_CONST uint SLOT_CD_REFLECTANCE = 0u, SLOT_CD_UROUGH = 1u, SLOT_CD_VROUGH = 2u,
+                  SLOT_CD_THICKNESS = 3u, SLOT_CD_ETA = 4u, SLOT_CD_ALBEDO = 5u, SLOT_CD_G = 6u;
+BASALT_CONST uint SLOT_CC_IF_UROUGH = 0u, SLOT_CC_IF_VROUGH = 1u, SLOT_CC_THICKNESS = 2u,
+                  SLOT_CC_IF_ETA = 3u, SLOT_CC_G = 4u, SLOT_CC_ALBEDO = 5u,
+                  SLOT_CC_UROUGH = 6u, SLOT_CC_VROUGH = 7u, SLOT_CC_ETA = 8u, SLOT_CC_K = 9u,
+                  SLOT_CC_REFLECTANCE = 10u;
+BASALT_CONST uint SLOT_PLASTIC_KD = 0u, SLOT_PLASTIC_KS = 1u, SLOT_PLASTIC_ROUGH = 2u;
+BASALT_CONST uint SLOT_SUBSTRATE_KD = 0u, SLOT_SUBSTRATE_KS = 1u, SLOT_SUBSTRATE_UROUGH = 2u,
+                  SLOT_SUBSTRATE_VROUGH = 3u;
+BASALT_CONST uint SLOT_TRANSLUCENT_KD = 0u, SLOT_TRANSLUCENT_KS = 1u,
+                  SLOT_TRANSLUCENT_REFLECT = 2u, SLOT_TRANSLUCENT_TRANSMIT = 3u,
+                  SLOT_TRANSLUCENT_ROUGH = 4u;
+BASALT_CONST uint SLOT_UBER_KD = 0u, SLOT_UBER_KS = 1u, SLOT_UBER_KR = 2u, SLOT_UBER_KT = 3u,
+                  SLOT_UBER_UROUGH = 4u, SLOT_UBER_VROUGH = 5u, SLOT_UBER_ETA = 6u,
+                  SLOT_UBER_OPACITY = 7u;
+BASALT_CONST uint SLOT_MEASURED_DIMS = 0u;  // xyz: n theta_h, n theta_d, n phi_d (not a texture)
+BASALT_CONST uint SLOT_MIX_AMOUNT = 0u;     // MIX: x; MIX_WEIGHTED: rgb. Weight of aux1.
+// Material.aux0 / aux1: MIX, MIX_WEIGHTED: the two material indices (aux1 gets `amount`);
+// COATED_*: maxdepth, nsamples; MEASURED: aux0 = first float of the table in `measured`.
+
+// ---- BSDF lobes (docs/materials-spec.md section 2) ----------------------------------------
+// A BSDF at a surface point is a list of up to MAX_LOBES lobes; the probes report these tags.
+BASALT_CONST uint MAX_LOBES = 8u;
+BASALT_CONST uint LOBE_LAMBERT_R = 1u;
+BASALT_CONST uint LOBE_LAMBERT_T = 2u;
+BASALT_CONST uint LOBE_OREN_NAYAR = 3u;
+BASALT_CONST uint LOBE_MICROFACET_R = 4u;
+BASALT_CONST uint LOBE_MICROFACET_T = 5u;
+BASALT_CONST uint LOBE_SPECULAR_R = 6u;
+BASALT_CONST uint LOBE_SPECULAR_T = 7u;
+BASALT_CONST uint LOBE_FRESNEL_BLEND = 8u;
+BASALT_CONST uint LOBE_CONDUCTOR = 9u;
+BASALT_CONST uint LOBE_DIELECTRIC = 10u;
+BASALT_CONST uint LOBE_THIN_DIELECTRIC = 11u;
+BASALT_CONST uint LOBE_DIFFUSE_TRANSMISSION = 12u;
+BASALT_CONST uint LOBE_LAYERED_DIFFUSE = 13u;
+BASALT_CONST uint LOBE_LAYERED_CONDUCTOR = 14u;
+BASALT_CONST uint LOBE_MEASURED = 15u;
+// Fresnel of LOBE_MICROFACET_R / LOBE_SPECULAR_R
+BASALT_CONST uint FRESNEL_ONE = 0u;
+BASALT_CONST uint FRESNEL_DIELECTRIC = 1u;
+BASALT_CONST uint FRESNEL_CONDUCTOR = 2u;
+
+// BSDF sample flags (pbrt-v4 BxDFFlags values)
+BASALT_CONST uint BSDF_REFLECTION = 1u;
+BASALT_CONST uint BSDF_TRANSMISSION = 2u;
+BASALT_CONST uint BSDF_DIFFUSE = 4u;
+BASALT_CONST uint BSDF_GLOSSY = 8u;
+BASALT_CONST uint BSDF_SPECULAR = 16u;
 
 // ---- light tags ------------------------------------------------------------------------
 BASALT_CONST uint LIGHT_POINT = 1u;
@@ -149,12 +257,12 @@ struct Sphere {
 
 /// Material: a type tag and parameter slots; each slot is a constant or a texture.
 struct Material {
-  uint type;
-  uint flags;
-  uint pad0;
-  uint pad1;
-  vec4 value[8];    // constant value of each slot (MATERIAL_SLOTS)
-  uvec4 texture[2]; // texture index of slot i at texture[i / 4][i % 4]; INVALID_INDEX = constant
+  uint type;        // MATERIAL_*
+  uint flags;       // MATFLAG_*
+  uint aux0;        // per type, see MATERIAL_* above
+  uint aux1;
+  vec4 value[16];   // constant value of each slot (MATERIAL_SLOTS)
+  uvec4 texture[4]; // texture index of slot i at texture[i / 4][i % 4]; INVALID_INDEX = constant
 };
 
 /// Light: type tag, emitted quantity, geometry and its selection probability.
@@ -194,6 +302,18 @@ BASALT_CONST uint PROBE_CAMERA = 4u;    // in: key.yzw = px, py, sample -> out: 
 BASALT_CONST uint PROBE_CAMERA_DIFF = 5u;  // in: key.yzw = px, py, sample -> out: f0.xyz =
                                            //    rx direction, f1.xyz = ry direction of the
                                            //    camera ray's differentials; f0.w, f1.w unused
+// PROBE_BSDF: one BSDF query (docs/materials-spec.md section 6) on material key.y of the
+// probe scene, at the surface point p = (o_tmax.w, d.w, extra.w) with shading frame = world
+// frame (ns = +z, dpdu = +x), in local directions:
+//   in:  o_tmax.xyz = wo, d.xyz = wi, extra.xyz = u (lobe, u0, u1), extra2.xyz = ng (local),
+//        key.z, key.w = stream key (px, py); streams use sample 0 and dims 7, 8, 9, 10
+//   out: f0 = (bsdf_eval(wo, wi) rgb, bsdf_pdf(wo, wi))    [eval stream dim 7, pdf dim 8]
+//        f1 = (sample f rgb, sample pdf)                     [sample stream dim 9]
+//        f2 = (sample wi xyz, sample eta)
+//        f3 = (bsdf_pdf(wo, sample wi) [stream dim 10], lobe count, 0, 0)
+//        u  = (sample flags (0: no sample), bsdf_flags (union of lobe flags),
+//              sample pdf_is_proportional, lobe tag of lobe 0)
+BASALT_CONST uint PROBE_BSDF = 6u;
 
 /// One probe query.
 struct ProbeIn {
@@ -201,24 +321,27 @@ struct ProbeIn {
   vec4 o_tmax;  // ray origin, tMax
   vec4 d;       // ray direction (xyz)
   vec4 extra;   // op-specific
+  vec4 extra2;  // op-specific
 };
 
 /// One probe answer. Misses report prim INVALID_INDEX and t = -1.
 struct ProbeOut {
   vec4 f0;   // CLOSEST/RESPAWN: t, b1, b2, unused
   vec4 f1;   // RESPAWN: second hit t, b1, b2, unused
+  vec4 f2;   // op-specific
+  vec4 f3;   // op-specific
   uvec4 u;   // x: prim of first hit (or occluded flag), y: prim of second hit
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(ProbeIn) == 64 && sizeof(ProbeOut) == 48, "Probe layout");
+static_assert(sizeof(ProbeIn) == 80 && sizeof(ProbeOut) == 80, "Probe layout");
 static_assert(sizeof(Globals) == 64 + 4 * 16 + 4 * 16, "Globals layout");
 static_assert(sizeof(BvhNode) == 32 && offsetof(BvhNode, hi) == 16, "BvhNode layout");
 static_assert(sizeof(Triangle) == 16, "Triangle layout");
 static_assert(sizeof(Vertex) == 32, "Vertex layout");
 static_assert(sizeof(Mesh) == 16, "Mesh layout");
 static_assert(sizeof(Sphere) == 80 && offsetof(Sphere, material) == 64, "Sphere layout");
-static_assert(sizeof(Material) == 176 && offsetof(Material, texture) == 144, "Material layout");
+static_assert(sizeof(Material) == 336 && offsetof(Material, texture) == 272, "Material layout");
 static_assert(sizeof(Light) == 80 && offsetof(Light, L) == 16, "Light layout");
 static_assert(sizeof(PassConstants) == 32, "PassConstants layout");
 }  // namespace basalt::gpu

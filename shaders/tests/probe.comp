@@ -27,7 +27,7 @@ void main() {
   uint i = gl_GlobalInvocationID.x;
   if (i >= pc.pixel_count) return;
   ProbeIn q = probe_in[i];
-  ProbeOut r = ProbeOut(vec4(0.0), vec4(0.0), uvec4(0u));
+  ProbeOut r = ProbeOut(vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), uvec4(0u));
   Ray ray = Ray(q.o_tmax.xyz, q.o_tmax.w, q.d.xyz);
   switch (q.key.x) {
     case PROBE_CLOSEST: {

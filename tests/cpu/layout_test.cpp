@@ -30,17 +30,17 @@ TEST(Layout, SizesAndOffsets) {
   EXPECT_EQ(sizeof(Sphere), 80u);
   EXPECT_EQ(offsetof(Sphere, axis_z), 48u);
   EXPECT_EQ(offsetof(Sphere, light), 68u);
-  EXPECT_EQ(sizeof(Material), 176u);
+  EXPECT_EQ(sizeof(Material), 336u);
   EXPECT_EQ(offsetof(Material, value), 16u);
-  EXPECT_EQ(offsetof(Material, texture), 144u);
+  EXPECT_EQ(offsetof(Material, texture), 272u);
   EXPECT_EQ(sizeof(Light), 80u);
   EXPECT_EQ(offsetof(Light, pmf), 12u);
   EXPECT_EQ(offsetof(Light, pos), 32u);
   EXPECT_EQ(offsetof(Light, params), 64u);
   EXPECT_EQ(sizeof(PassConstants), 32u);
-  EXPECT_EQ(sizeof(ProbeIn), 64u);
-  EXPECT_EQ(sizeof(ProbeOut), 48u);
-  EXPECT_EQ(offsetof(ProbeOut, u), 32u);
+  EXPECT_EQ(sizeof(ProbeIn), 80u);
+  EXPECT_EQ(sizeof(ProbeOut), 80u);
+  EXPECT_EQ(offsetof(ProbeOut, u), 64u);
 }
 
 TEST(Layout, FeatureBitsAreDistinct) {
