@@ -31,7 +31,7 @@ double since(Clock::time_point t0) {
 constexpr int kExitInput = 1, kExitValidation = 3;
 
 struct Options {
-  std::string scene, device = "auto", stats;
+  std::string scene, device = "auto", stats, mix = "auto";
   std::vector<std::string> outputs;
   int spp = -1;
   long long seed = -1;
@@ -43,7 +43,11 @@ int run(const Options& opt) {
   basalt::RenderStats st;
   st.scene = opt.scene;
   auto t0 = Clock::now();
-  basalt::Scene scene = basalt::load_scene(opt.scene);
+  // --mix: how mix materials render (docs/materials.md "Mix"); checked for that mode.
+  basalt::MixMode mix = opt.mix == "stochastic" ? basalt::MixMode::Stochastic
+                        : opt.mix == "weighted" ? basalt::MixMode::Weighted
+                                                : basalt::MixMode::Auto;
+  basalt::Scene scene = basalt::load_scene(opt.scene, mix);
   st.seconds_parse = since(t0);
   for (const auto& w : scene.warnings) std::cerr << w << "\n";
   if (opt.spp >= 0) scene.sampler.spp = opt.spp;
@@ -91,6 +95,7 @@ int run(const Options& opt) {
     basalt::vkx::GpuRenderer gpu(ctx, tables);
     st.seconds_upload = gpu.seconds_upload;
     st.seconds_pipeline = gpu.seconds_pipeline;
+    st.shader_variant = gpu.variant;
     t0 = Clock::now();
     gpu.render(0, std::uint32_t(st.spp), progress);
     st.seconds_render = since(t0);
@@ -139,6 +144,10 @@ int main(int argc, char** argv) {
   app.add_option("--device", opt.device,
                  "auto (a GPU if present, else lavapipe), lavapipe, cpu (the CPU reference), "
                  "or part of a Vulkan device name");
+  app.add_option("--mix", opt.mix,
+                 "mix materials: auto (pbrt-v4 \"materials\" syntax stochastic, pbrt-v3 "
+                 "\"namedmaterial1/2\" syntax weighted), stochastic or weighted (forces one)")
+      ->check(CLI::IsMember({"auto", "stochastic", "weighted"}));
   app.add_option("--stats", opt.stats, "write render statistics as JSON to this file");
   app.add_flag("-q,--quiet", opt.quiet, "no progress bar or summary");
   app.add_flag("--list-devices", list, "list Vulkan devices and exit");

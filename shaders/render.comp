@@ -10,6 +10,7 @@
 // workgroup trace neighbouring pixels (coherent) while consecutive workgroups land all over
 // the image (balanced). Slots of the padding past the image edge return.
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 
 #include "include/bindings.glsl"
 #include "include/integrator.glsl"

@@ -100,6 +100,39 @@ bad_case(missing_ply "missing_ply\\.pbrt:3:[0-9]+"
 bad_case(unknown_material "unknown_material\\.pbrt:3:[0-9]+"
          "${head}Material \"velvet\"\n${sphere}")
 bad_case(empty_scene "empty_scene\\.pbrt(:[0-9]+:[0-9]+)?" "# nothing here\n")
+# Materials (docs/materials.md): refused kinds, undefined mix names, unreadable measured data.
+bad_case(hair_material "hair_material\\.pbrt:3:1" "${head}Material \"hair\"\n${sphere}")
+bad_case(mix_undefined "mix_undefined\\.pbrt:3:16"
+         "${head}Material \"mix\" \"string materials\" [\"a\" \"b\"]\n${sphere}")
+bad_case(measured_missing "measured_missing\\.pbrt:3:21"
+         "${head}Material \"measured\" \"string filename\" \"none.binary\"\n${sphere}")
+
+# --mix: a nested pbrt-v4 mix renders stochastically (auto, stochastic) and is refused,
+# with the location of the mix, when weighted mixes are forced.
+set(mixes "MakeNamedMaterial \"a\" \"string type\" \"diffuse\"
+MakeNamedMaterial \"b\" \"string type\" \"conductor\"
+MakeNamedMaterial \"ab\" \"string type\" \"mix\" \"string materials\" [\"a\" \"b\"]
+Material \"mix\" \"string materials\" [\"ab\" \"a\"]
+")
+file(WRITE ${WORK}/mix.pbrt "${head}${mixes}${sphere}")
+foreach(mode auto stochastic)
+  execute_process(COMMAND ${BASALT} ${WORK}/mix.pbrt --device cpu --quiet --spp 1 --mix ${mode}
+                          -o ${WORK}/mix-${mode}.exr RESULT_VARIABLE rc ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0 OR NOT EXISTS ${WORK}/mix-${mode}.exr)
+    fail("--mix ${mode}: exit ${rc}: ${err}")
+  endif()
+endforeach()
+execute_process(COMMAND ${BASALT} ${WORK}/mix.pbrt --device cpu --quiet --mix weighted
+                        -o ${WORK}/mix-weighted.exr RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(rc EQUAL 0 OR NOT err MATCHES "mix\\.pbrt:6:1: error: a weighted \\(pbrt-v3\\) mix cannot contain another mix"
+   OR EXISTS ${WORK}/mix-weighted.exr)
+  fail("--mix weighted on nested mixes: exit ${rc}: ${err}")
+endif()
+execute_process(COMMAND ${BASALT} ${WORK}/mix.pbrt --device cpu --mix sometimes
+                RESULT_VARIABLE rc ERROR_VARIABLE err OUTPUT_VARIABLE out)
+if(rc EQUAL 0)
+  fail("--mix sometimes: exit 0")
+endif()
 
 # A missing scene file and an unsupported output format fail before any rendering.
 execute_process(COMMAND ${BASALT} ${WORK}/does-not-exist.pbrt -o ${WORK}/x.exr
@@ -113,6 +146,6 @@ if(rc EQUAL 0 OR EXISTS ${WORK}/x.jpg)
   fail("unsupported output format: exit ${rc}: ${err}")
 endif()
 execute_process(COMMAND ${BASALT} --help RESULT_VARIABLE rc OUTPUT_VARIABLE out)
-if(NOT rc EQUAL 0 OR NOT out MATCHES "--spp")
+if(NOT rc EQUAL 0 OR NOT out MATCHES "--spp" OR NOT out MATCHES "--mix")
   fail("--help: exit ${rc}")
 endif()

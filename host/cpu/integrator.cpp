@@ -13,18 +13,13 @@
 namespace basalt::cpu {
 namespace {
 
-/// Material of a hit; a missing material (INVALID_INDEX) is a type-0 material: black, no
-/// BSDF sample, so the path ends there after its emission is counted.
-const gpu::Material& material_of(const SceneTables& scene, std::uint32_t index) {
-  static const gpu::Material none{};
-  return index < scene.materials.size() ? scene.materials[index] : none;
-}
-
-/// Direct lighting at a non-specular vertex b (spec section 7 "NEE"; pbrt-v4
-/// PathIntegrator::SampleLd): one light chosen by the light CDF, one sample on it.
-glm::vec3 sample_direct(const SceneTables& scene, const SurfacePoint& sp,
-                        const gpu::Material& mat, glm::vec3 wo, std::uint32_t b,
-                        const PathRng& r, std::uint64_t& rays) {
+/// Direct lighting at a vertex b with a non-specular BSDF (spec section 7 "NEE"; pbrt-v4
+/// PathIntegrator::SampleLd): one light chosen by the light CDF, one sample on it. The BSDF
+/// is evaluated with stream +7 and its pdf with stream +8 (docs/materials-spec.md section 5);
+/// ng_l is the geometric normal in the local frame (light-leak rule, materials-spec 1.2).
+glm::vec3 sample_direct(const SceneTables& scene, const SurfacePoint& sp, const Bsdf& bsdf,
+                        glm::vec3 wo, glm::vec3 ng_l, std::uint32_t b, const PathRng& r,
+                        std::uint64_t& rays) {
   const std::uint32_t li = select_light(scene, r(dim::bounce(b, dim::LIGHT_SELECT)));
   if (li == gpu::INVALID_INDEX) return glm::vec3(0.0f);
   const gpu::Light& light = scene.lights[li];
@@ -34,15 +29,21 @@ glm::vec3 sample_direct(const SceneTables& scene, const SurfacePoint& sp,
       glm::vec2(r(dim::bounce(b, dim::LIGHT_U0)), r(dim::bounce(b, dim::LIGHT_U1))));
   if (!(ls.pdf > 0.0f) || !any_positive(ls.Li)) return glm::vec3(0.0f);
   const glm::vec3 wi = sp.frame.to_local(ls.wi);
-  const glm::vec3 f = bsdf_eval(mat, wo, wi) * std::fabs(glm::dot(ls.wi, sp.g.ns));
+  const glm::vec3 f =
+      bsdf_eval(bsdf, wo, wi, ng_l, r.stream(dim::bounce(b, dim::STREAM_NEE_EVAL))) *
+      std::fabs(glm::dot(ls.wi, sp.g.ns));
   if (!any_positive(f)) return glm::vec3(0.0f);
   ++rays;
   if (intersect_any(scene, shadow_ray(sp.g.p, sp.g.ng, sp.g.m, ls))) return glm::vec3(0.0f);
   if (ls.delta) return f * ls.Li / light.pmf;
   const float pl = light.pmf * ls.pdf;
   if (!(pl > 0.0f)) return glm::vec3(0.0f);  // underflow of pmf * pdf
-  return f * ls.Li * power_heuristic(pl, bsdf_pdf(mat, wo, wi)) / pl;
+  const float pb = bsdf_pdf(bsdf, wo, wi, ng_l, r.stream(dim::bounce(b, dim::STREAM_NEE_PDF)));
+  return f * ls.Li * power_heuristic(pl, pb) / pl;
 }
+
+/// docs/materials-spec.md section 5: interface crossings allowed per path.
+constexpr std::uint32_t MAX_INTERFACE_CROSSINGS = 64;
 
 }  // namespace
 
@@ -53,8 +54,8 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
   glm::vec3 L(0.0f), beta(1.0f), p_prev(0.0f), ng_prev(0.0f);
   float m_prev = 0.0f;
   bool specular = false;
-  float pdf_prev = 0.0f;
-  std::uint32_t depth = 0;
+  float pdf_prev = 0.0f, eta_scale = 1.0f;
+  std::uint32_t depth = 0, crossings = 0;
   std::uint64_t nrays = 0;
   for (;;) {
     const Hit hit = intersect_closest(scene, ray);
@@ -87,28 +88,46 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
         }
       }
     }
+    // The BSDF (stochastic mixes resolved at the hit, docs/materials-spec.md section 4).
+    const Bsdf bsdf = bsdf_at(scene, sp.material, sp, -ray.d);
+    if (bsdf.interface) {
+      // materials-spec section 5 (pbrt-v4 PathIntegrator: no BSDF -> SkipIntersection): the
+      // ray continues from the hit, depth unchanged, as after a specular bounce.
+      if (crossings == MAX_INTERFACE_CROSSINGS) break;
+      ++crossings;
+      specular = true;
+      ray = spawn_ray(sp.g.p, sp.g.ng, sp.g.m, ray.d);
+      continue;
+    }
     if (depth == max_depth) break;
     const std::uint32_t b = depth;
     ++depth;
-    const gpu::Material& mat = material_of(scene, sp.material);
     const glm::vec3 wo = sp.frame.to_local(-ray.d);
-    if (bsdf_is_nonspecular(mat)) L += beta * sample_direct(scene, sp, mat, wo, b, r, nrays);
-    // Continue the path by sampling the BSDF.
+    const glm::vec3 ng_l = sp.frame.to_local(sp.g.ng);
+    if (bsdf_is_nonspecular(bsdf))
+      L += beta * sample_direct(scene, sp, bsdf, wo, ng_l, b, r, nrays);
+    // Continue the path by sampling the BSDF (stream +9).
     const BsdfSample bs =
-        bsdf_sample(mat, wo,
+        bsdf_sample(bsdf, wo,
                     glm::vec3(r(dim::bounce(b, dim::BSDF_LOBE)), r(dim::bounce(b, dim::BSDF_U0)),
-                              r(dim::bounce(b, dim::BSDF_U1))));
-    if (!bs.valid || !any_positive(bs.f) || bs.pdf == 0.0f || bs.wi.z == 0.0f) break;
+                              r(dim::bounce(b, dim::BSDF_U1))),
+                    ng_l, r.stream(dim::bounce(b, dim::STREAM_SAMPLE)));
+    if (bs.flags == 0 || !any_positive(bs.f) || bs.pdf == 0.0f || bs.wi.z == 0.0f) break;
     const glm::vec3 wi = sp.frame.to_world(bs.wi);
     beta *= bs.f * std::fabs(glm::dot(wi, sp.g.ns)) / bs.pdf;
-    pdf_prev = bs.pdf;
-    specular = bs.specular;
+    // pbrt-v4: a proportional pdf (layered lobes) is replaced by bsdf_pdf for MIS (stream +10).
+    pdf_prev = bs.pdf_is_proportional
+                   ? bsdf_pdf(bsdf, wo, bs.wi, ng_l,
+                              r.stream(dim::bounce(b, dim::STREAM_SAMPLE_PDF)))
+                   : bs.pdf;
+    specular = (bs.flags & gpu::BSDF_SPECULAR) != 0;
+    if (bs.flags & gpu::BSDF_TRANSMISSION) eta_scale *= bs.eta * bs.eta;
     p_prev = sp.g.p;
     ng_prev = sp.g.ng;
     m_prev = sp.g.m;
     ray = spawn_ray(sp.g.p, sp.g.ng, sp.g.m, wi);
-    // Russian roulette (pbrt-v4 13.1.3), from the third vertex on.
-    const float mb = max_component(beta);
+    // Russian roulette on beta etaScale (pbrt-v4 13.1.3), from the third vertex on.
+    const float mb = max_component(beta * eta_scale);
     if (mb < 1.0f && depth > 1) {
       const float q = std::max(0.0f, 1.0f - mb);
       if (r(dim::bounce(b, dim::ROULETTE)) < q) break;

@@ -12,6 +12,10 @@ inline constexpr std::uint32_t FILTER_X = 0, FILTER_Y = 1, LENS_X = 2, LENS_Y = 
 inline constexpr std::uint32_t BOUNCE_BASE = 4, BOUNCE_STRIDE = 16;
 inline constexpr std::uint32_t LIGHT_SELECT = 0, LIGHT_U0 = 1, LIGHT_U1 = 2, BSDF_LOBE = 3,
                                BSDF_U0 = 4, BSDF_U1 = 5, ROULETTE = 6;
+/// Streams of docs/materials-spec.md section 5: NEE bsdf_eval, NEE bsdf_pdf, bsdf_sample and
+/// the bsdf_pdf that replaces a proportional sample pdf.
+inline constexpr std::uint32_t STREAM_NEE_EVAL = 7, STREAM_NEE_PDF = 8, STREAM_SAMPLE = 9,
+                               STREAM_SAMPLE_PDF = 10;
 /// Dimension of slot k (LIGHT_SELECT...ROULETTE) of bounce b.
 constexpr std::uint32_t bounce(std::uint32_t b, std::uint32_t k) {
   return BOUNCE_BASE + BOUNCE_STRIDE * b + k;
@@ -42,11 +46,36 @@ inline float rng(std::uint32_t px, std::uint32_t py, std::uint32_t sample, std::
   return float(v.x >> 8) * 0x1p-24f;
 }
 
+/// \brief Base key of the stream (px, py, s, d) for scene seed `seed`
+///        (docs/materials-spec.md section 5): uvec4(px, py, s, d ^ (seed * 0x9E3779B9)).
+inline glm::uvec4 stream_key(std::uint32_t px, std::uint32_t py, std::uint32_t sample,
+                             std::uint32_t d, std::uint32_t seed) {
+  return glm::uvec4(px, py, sample, d ^ (seed * 0x9E3779B9u));
+}
+
+/// \brief Element j of the stream with base key `key` (docs/materials-spec.md section 5):
+///        float(pcg4d(key + (0, 0, 0, (j + 1) * 0x01000193)).x >> 8) 2^-24.
+inline float stream_element(glm::uvec4 key, std::uint32_t j) {
+  const glm::uvec4 v = pcg4d(key + glm::uvec4(0u, 0u, 0u, (j + 1u) * 0x01000193u));
+  return float(v.x >> 8) * 0x1p-24f;
+}
+
+/// A stream being consumed: each call returns the next element (j = 0, 1, 2, ...), the
+/// replacement of pbrt-v4's `r()` in LayeredBxDF.
+struct Stream {
+  glm::uvec4 key;
+  std::uint32_t j = 0;
+  /// Next element of the stream.
+  float operator()() { return stream_element(key, j++); }
+};
+
 /// The random stream of one path: rng() with pixel, sample and seed fixed.
 struct PathRng {
   std::uint32_t px, py, sample, seed;
   /// Value of dimension d of this path.
   float operator()(std::uint32_t d) const { return rng(px, py, sample, d, seed); }
+  /// Base key of the stream of dimension d of this path (docs/materials-spec.md section 5).
+  glm::uvec4 stream(std::uint32_t d) const { return stream_key(px, py, sample, d, seed); }
 };
 
 }  // namespace basalt::cpu

@@ -30,6 +30,13 @@ inline glm::vec3 safe_normalize(glm::vec3 v) {
   return v / std::sqrt(l2);
 }
 
+/// Signed radius of concentric_disk(u) (|result| is the distance from the centre), computed
+/// without trigonometry so that 1 - r^2 is exact on both renderers (path-spec section 8).
+inline float concentric_radius(glm::vec2 u) {
+  const glm::vec2 o = 2.0f * u - 1.0f;
+  return std::fabs(o.x) > std::fabs(o.y) ? o.x : o.y;
+}
+
 /// Shirley & Chiu 1997 concentric square-to-disk map, pbrt-v4 A.5.1 SampleUniformDiskConcentric
 /// (docs/path-spec.md section 2 step 4).
 inline glm::vec2 concentric_disk(glm::vec2 u) {

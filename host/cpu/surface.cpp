@@ -29,6 +29,22 @@ SurfaceGeometry triangle_geometry(const SceneTables& scene, std::uint32_t tri, f
     if (flags & gpu::SHAPE_FLAG_FLIP_NORMAL) g.ng = -g.ng;
     g.ns = g.ng;
   }
+  // docs/materials-spec.md 1.1 (pbrt-v4 Triangle::InteractionFromIntersection): dpdu from the
+  // vertex uv, or (0,0), (1,0), (1,1) when the mesh has none; zero for a degenerate uv map.
+  glm::vec2 uv0(0.0f, 0.0f), uv1(1.0f, 0.0f), uv2(1.0f, 1.0f);
+  if (flags & gpu::SHAPE_FLAG_HAS_UV) {
+    uv0 = glm::vec2(v0.p_u.w, v0.n_v.w);
+    uv1 = glm::vec2(v1.p_u.w, v1.n_v.w);
+    uv2 = glm::vec2(v2.p_u.w, v2.n_v.w);
+  }
+  const glm::vec2 duv02 = uv0 - uv2, duv12 = uv1 - uv2;
+  const glm::vec3 dp02 = p0 - p2, dp12 = p1 - p2;
+  const float det = duv02.x * duv12.y - duv02.y * duv12.x;
+  if (std::fabs(det) < 1e-9f) {
+    g.dpdu = glm::vec3(0.0f);
+  } else {
+    g.dpdu = (duv12.y * dp02 - duv02.y * dp12) / det;
+  }
   return g;
 }
 
@@ -45,7 +61,29 @@ SurfaceGeometry sphere_geometry(const SceneTables& scene, std::uint32_t s, glm::
   if (sp.flags & gpu::SHAPE_FLAG_FLIP_NORMAL) g.ng = -g.ng;
   g.ns = g.ng;
   g.m = sphere_magnitude(c, r);
+  // docs/materials-spec.md 1.1: dpdu = 2 pi (-q.y, q.x, 0) in the object frame, q = the point
+  // in object coordinates (pbrt-v4 Sphere::InteractionFromIntersection with phiMax = 2 pi).
+  const glm::vec3 d = g.p - c;
+  const glm::vec3 ax(sp.axis_x), ay(sp.axis_y);
+  const float qx = glm::dot(d, ax), qy = glm::dot(d, ay);
+  const float du_x = -2.0f * PI * qy, du_y = 2.0f * PI * qx;
+  g.dpdu = du_x * ax + du_y * ay;
   return g;
+}
+
+Frame shading_frame(glm::vec3 ns, glm::vec3 dpdu) {
+  // docs/materials-spec.md 1.1: Gram-Schmidt of dpdu against ns (pbrt-v4 BSDF's frame
+  // Frame::FromXZ(Normalize(dpdus), ns)); the Duff frame when dpdu is unusable.
+  const glm::vec3 s = dpdu - ns * glm::dot(ns, dpdu);
+  const float l2 = glm::dot(s, s);
+  if (l2 > 1e-20f && std::isfinite(l2)) {
+    Frame f;
+    f.t1 = s / std::sqrt(l2);
+    f.t2 = glm::cross(ns, f.t1);
+    f.n = ns;
+    return f;
+  }
+  return Frame::from_z(ns);
 }
 
 SurfacePoint surface_point(const SceneTables& scene, const Ray& ray, const Hit& hit) {
@@ -65,7 +103,7 @@ SurfacePoint surface_point(const SceneTables& scene, const Ray& ray, const Hit& 
       if (m.light_base != gpu::INVALID_INDEX) sp.light = m.light_base + hit.prim - m.tri_base;
     }
   }
-  sp.frame = Frame::from_z(sp.g.ns);
+  sp.frame = shading_frame(sp.g.ns, sp.g.dpdu);
   return sp;
 }
 

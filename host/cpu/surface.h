@@ -16,25 +16,33 @@ struct SurfaceGeometry {
   glm::vec3 ng{0.0f, 0.0f, 1.0f};  // geometric normal, oriented as section 4 says
   glm::vec3 ns{0.0f, 0.0f, 1.0f};  // shading normal
   float m = 0.0f;  // magnitude bound of the primitive at p, for offset_ray (section 5)
+  glm::vec3 dpdu{0.0f};  // dp/du (docs/materials-spec.md 1.1); zero when there is none
 };
 
 /// A shaded hit: geometry, shading frame, material and area light.
 struct SurfacePoint {
   SurfaceGeometry g;
-  Frame frame;                                // Duff frame of ns
+  Frame frame;  // shading frame (s, t, ns) of docs/materials-spec.md 1.1 (shading_frame)
   std::uint32_t material = gpu::INVALID_INDEX;
   std::uint32_t light = gpu::INVALID_INDEX;   // area light of the primitive, if emissive
 };
 
 /// \brief Point of triangle tri at barycentrics (b0, b1, b2): interpolated position, ng from
-///        cross(p0 - p2, p1 - p2), ns interpolated when the mesh has normals (section 4), and
-///        the magnitude bound m = max component of |b0 p0| + |b1 p1| + |b2 p2| (section 5).
+///        cross(p0 - p2, p1 - p2), ns interpolated when the mesh has normals (section 4),
+///        the magnitude bound m = max component of |b0 p0| + |b1 p1| + |b2 p2| (section 5) and
+///        dpdu from the vertex uv (docs/materials-spec.md 1.1).
 SurfaceGeometry triangle_geometry(const SceneTables& scene, std::uint32_t tri, float b0, float b1,
                                   float b2);
 
 /// \brief Point of sphere index s at p (re-projected onto the sphere), normals per section 4,
-///        magnitude bound m = sphere_magnitude(c, r) (section 5).
+///        magnitude bound m = sphere_magnitude(c, r) (section 5), dpdu of
+///        docs/materials-spec.md 1.1 (zero at the poles).
 SurfaceGeometry sphere_geometry(const SceneTables& scene, std::uint32_t s, glm::vec3 p);
+
+/// \brief Shading frame of docs/materials-spec.md 1.1: s = dpdu - ns dot(ns, dpdu)
+///        (Gram-Schmidt), normalized if dot(s, s) > 1e-20 and finite, t = cross(ns, s);
+///        otherwise the Duff frame of ns (docs/path-spec.md section 4).
+Frame shading_frame(glm::vec3 ns, glm::vec3 dpdu);
 
 /// \brief Shaded hit of a valid Hit of ray (b0 = 1 - b1 - b2 for triangles).
 SurfacePoint surface_point(const SceneTables& scene, const Ray& ray, const Hit& hit);

@@ -3,6 +3,7 @@
 #include "scene/paramset.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace basalt {
 
@@ -281,44 +282,72 @@ std::vector<glm::vec3> ParamSet::get_normals(const std::string& name) const {
   return triples(lookup(name, {"normal"}));
 }
 
+std::optional<Spectrum> ParamSet::get_spectrum_curve(const std::string& name) const {
+  const Param* p = lookup(name, {"rgb", "spectrum", "blackbody"});
+  if (!p) return std::nullopt;
+  if (p->type == "rgb")
+    throw SceneError(p->loc, pname(*p) + " needs a spectrum here (a float, a named or tabulated "
+                                         "spectrum), not an rgb value");
+  if (p->type == "blackbody") {
+    // pbrt-v4: "blackbody L" [ T ], the normalised BlackbodySpectrum(T).
+    if (p->numbers.size() != 1)
+      throw SceneError(p->loc, "blackbody " + pname(*p) +
+                                   " takes one value, the temperature in Kelvin (pbrt-v4)");
+    if (!(p->numbers[0] > 0.0) || !std::isfinite(p->numbers[0]))
+      throw SceneError(p->loc, "blackbody " + pname(*p) + " needs a positive temperature");
+    return Spectrum::blackbody(p->numbers[0]);
+  }
+  if (!p->strings.empty()) {
+    if (p->strings.size() != 1)
+      throw SceneError(p->loc, pname(*p) + " expects one spectrum name");
+    std::optional<Spectrum> s = named_spectrum(p->strings[0]);
+    if (!s) {
+      std::string known;
+      for (const std::string& n : named_spectrum_names()) known += (known.empty() ? "" : ", ") + n;
+      throw SceneError(p->loc, "unknown named spectrum \"" + p->strings[0] + "\" for " + pname(*p) +
+                                   " (basalt knows " + known + ")");
+    }
+    return s;
+  }
+  // (lambda, value) pairs with increasing wavelengths (pbrt-v4 PiecewiseLinearSpectrum).
+  const std::vector<double>& v = p->numbers;
+  if (v.size() < 2) throw SceneError(p->loc, pname(*p) + " needs (wavelength, value) pairs");
+  for (std::size_t i = 2; i < v.size(); i += 2)
+    if (v[i] <= v[i - 2]) throw SceneError(p->loc, pname(*p) + ": wavelengths must increase");
+  for (double x : v)
+    if (!std::isfinite(x)) throw SceneError(p->loc, pname(*p) + " has a non-finite value");
+  return Spectrum::from_pairs(v.data(), v.size());
+}
+
+std::vector<std::string> ParamSet::get_strings(const std::string& name) const {
+  const Param* p = lookup(name, {"string"});
+  return p ? p->strings : std::vector<std::string>{};
+}
+
 std::optional<glm::vec3> ParamSet::get_spectrum(const std::string& name, SpectrumUse use,
-                                                std::vector<std::string>* warnings) const {
+                                                std::vector<std::string>* /*warnings*/) const {
   const Param* p = lookup(name, {"rgb", "spectrum", "blackbody"});
   if (!p) return std::nullopt;
   glm::vec3 rgb;
-  if (p->type == "blackbody") {
-    throw SceneError(p->loc, "spectrum parameters are not supported yet: blackbody " + pname(*p) +
-                                 "; give an rgb value");
-  } else if (p->type == "spectrum" && !p->strings.empty()) {
-    throw SceneError(p->loc, "spectrum parameters are not supported yet: named spectrum \"" +
-                                 p->strings[0] + "\" for " + pname(*p) + "; give an rgb value");
-  } else if (p->type == "spectrum") {
-    // (lambda, value) pairs; only a constant one has an exact RGB equivalent.
-    const std::vector<double>& v = p->numbers;
-    if (v.size() != 2 && v.size() < 4)
-      throw SceneError(p->loc, pname(*p) + " needs (wavelength, value) pairs");
-    for (std::size_t i = 2; i < v.size(); i += 2)
-      if (v[i] <= v[i - 2]) throw SceneError(p->loc, pname(*p) + ": wavelengths must increase");
-    for (std::size_t i = 3; i < v.size(); i += 2)
-      if (v[i] != v[1])
-        throw SceneError(p->loc, "spectrum parameters are not supported yet: " + pname(*p) +
-                                     " is not constant; give an rgb value");
-    if (use == SpectrumUse::Illuminant) {
-      // pbrt-v4 divides every light's scale by SpectrumToPhotometric(spectrum): the constant
-      // cancels and the light has unit luminance, with the equal-energy white point.
-      if (warnings)
-        warnings->push_back(format_warning(
-            p->loc, "constant spectrum for " + pname(*p) +
-                        " taken as rgb (1, 1, 1): pbrt-v4 normalizes light spectra to unit "
-                        "luminance, and basalt renders an equal-energy white as grey"));
-      rgb = glm::vec3(1.0f);
-    } else {
-      rgb = glm::vec3(float(v[1]));
-    }
-  } else {
+  if (p->type == "rgb") {
     require_one(*p, p->numbers.size(), 3);
     rgb = glm::vec3(p->numbers[0], p->numbers[1], p->numbers[2]);
+  } else {
+    Spectrum s = *get_spectrum_curve(name);
+    glm::dvec3 c = use == SpectrumUse::Illuminant ? spectrum_to_rgb_illuminant(s)
+                                                  : spectrum_to_rgb_reflectance(s);
+    rgb = glm::vec3(c);
+    if (use == SpectrumUse::Illuminant) rgb = glm::max(rgb, glm::vec3(0.0f));  // out of gamut
+    if (p->type == "spectrum" && p->strings.empty())
+      for (std::size_t i = 1; i < p->numbers.size(); i += 2)
+        if (p->numbers[i] < 0) throw SceneError(p->loc, pname(*p) + " has a negative value");
+    if (use == SpectrumUse::Albedo && p->type == "spectrum" && p->strings.empty())
+      for (std::size_t i = 1; i < p->numbers.size(); i += 2)
+        if (p->numbers[i] > 1)
+          throw SceneError(p->loc, pname(*p) + " is a reflectance and has a value above 1");
   }
+  if (!std::isfinite(rgb.x) || !std::isfinite(rgb.y) || !std::isfinite(rgb.z))
+    throw SceneError(p->loc, pname(*p) + " is not finite");
   if (rgb.x < 0 || rgb.y < 0 || rgb.z < 0)
     throw SceneError(p->loc, pname(*p) + " has a negative component");
   if (use == SpectrumUse::Albedo && (rgb.x > 1 || rgb.y > 1 || rgb.z > 1))

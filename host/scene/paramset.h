@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "scene/scene.h"
+#include "scene/spectra.h"
 #include "scene/tokenizer.h"
 
 namespace basalt {
@@ -26,7 +27,8 @@ struct Param {
 /// How a spectrum-valued parameter is used; decides its checks (pbrt-v4 SpectrumType).
 enum class SpectrumUse {
   Albedo,      // reflectances: components in [0, 1]
-  Illuminant,  // light emission: components >= 0
+  Unbounded,   // eta, k, pbrt-v3 Kd/Ks/...: components >= 0
+  Illuminant,  // light emission: components >= 0, spectra normalised to luminance 1
 };
 
 /// The parameters of one directive, looked up by name and type as pbrt-v4's ParameterDictionary.
@@ -51,12 +53,23 @@ class ParamSet {
   std::vector<glm::vec3> get_point3s(const std::string& name) const;
   std::vector<glm::vec3> get_normals(const std::string& name) const;
 
-  /// \brief An rgb or (constant-valued) spectrum parameter as linear RGB, or nothing if absent.
-  /// \param warnings receives a note when a constant spectrum is turned into grey light.
-  /// \throws SceneError for named, tabulated non-constant and blackbody spectra (not supported
-  ///         yet), for negative components, and for albedos above 1 (pbrt-v4 checks the same).
+  /// \brief An rgb, spectrum or blackbody parameter as linear sRGB, or nothing if absent.
+  /// Spectra (named, inline (lambda, value) pairs, blackbody) are converted as
+  /// docs/materials.md "Spectra" says: reflectance weighting for Albedo/Unbounded, luminance-1
+  /// XYZ for Illuminant. \p warnings is unused (kept for callers).
+  /// \throws SceneError for unknown named spectra, malformed spectra, negative components, and
+  ///         albedos above 1 (pbrt-v4 checks the same).
   std::optional<glm::vec3> get_spectrum(const std::string& name, SpectrumUse use,
                                         std::vector<std::string>* warnings) const;
+  /// \brief A spectrum or blackbody parameter as a Spectrum (an rgb one is an error: it has no
+  /// wavelength dependence to evaluate), or nothing if absent.
+  std::optional<Spectrum> get_spectrum_curve(const std::string& name) const;
+  /// \brief All strings of the last string parameter \p name (empty if absent).
+  std::vector<std::string> get_strings(const std::string& name) const;
+
+  /// \brief The last parameter called \p name, checked to have one of \p types (an error at
+  /// its location otherwise) and marked used; nullptr if absent.
+  const Param* lookup(const std::string& name, std::initializer_list<const char*> types) const;
 
   /// \brief The parameter named \p name (the last one), or nullptr; marks nothing.
   const Param* find(const std::string& name) const;
@@ -67,8 +80,6 @@ class ParamSet {
   /// (pbrt-v4 ReportUnused, which errors; basalt warns). \p what names the directive.
   void report_unused(const std::string& what, std::vector<std::string>& warnings) const;
 
- private:
-  const Param* lookup(const std::string& name, std::initializer_list<const char*> types) const;
 };
 
 /// \brief Reads "type name" value pairs until the next token that is not a quoted string.

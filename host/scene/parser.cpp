@@ -11,6 +11,7 @@
 #include <map>
 #include <sstream>
 
+#include "scene/materials.h"
 #include "scene/paramset.h"
 #include "scene/ply.h"
 #include "scene/scene.h"
@@ -79,7 +80,9 @@ std::string read_scene_file(const std::string& path, const SourceLoc& where, con
 
 class Parser {
  public:
-  explicit Parser(std::string main_dir) : main_dir_(std::move(main_dir)) {}
+  Parser(std::string main_dir, MixMode mix_mode) : main_dir_(std::move(main_dir)) {
+    scene_.mix_mode = mix_mode;
+  }
 
   // Parses the text of one file; dir resolves its relative paths.
   void parse(Tokenizer& tok, const std::string& dir);
@@ -113,7 +116,8 @@ class Parser {
   void light_source(Tokenizer& tok, const Token& d);
   void area_light_source(Tokenizer& tok, const Token& d);
   Material make_material(const std::string& type, const ParamSet& ps, const SourceLoc& loc,
-                         const SourceLoc& type_loc, const std::string& what);
+                         const SourceLoc& type_loc, const std::string& what,
+                         const std::string& dir);
   void attribute_begin(const Token& d);
   void attribute_end(const Token& d);
 
@@ -395,15 +399,15 @@ void Parser::directive(Tokenizer& tok, const Token& d, const std::string& dir) {
   } else if (n == "Material") {
     verify_world(d);
     std::string type = string_arg(tok, d, "a material type");
-    ParamSet ps = params(tok);
-    Material m = make_material(type, ps, d.loc, d.loc, "Material '" + type + "'");
+    ParamSet ps = parse_param_list(tok);  // texture references are material parameters
+    Material m = make_material(type, ps, d.loc, d.loc, "Material '" + type + "'", dir);
     gs_.material = int(scene_.materials.size());
     gs_.named_material.clear();
     scene_.materials.push_back(std::move(m));
   } else if (n == "MakeNamedMaterial") {
     verify_world(d);
     std::string name = string_arg(tok, d, "a material name");
-    ParamSet ps = params(tok);
+    ParamSet ps = parse_param_list(tok);  // texture references are material parameters
     if (named_materials_.count(name))
       throw SceneError(d.loc, "named material \"" + name + "\" redefined");
     const Param* tp = ps.find("type");
@@ -411,7 +415,8 @@ void Parser::directive(Tokenizer& tok, const Token& d, const std::string& dir) {
       throw SceneError(d.loc,
                        "MakeNamedMaterial \"" + name + "\" needs a \"string type\" parameter");
     std::string type = ps.get_string("type", "");
-    Material m = make_material(type, ps, d.loc, tp->loc, "MakeNamedMaterial \"" + name + "\"");
+    Material m =
+        make_material(type, ps, d.loc, tp->loc, "MakeNamedMaterial \"" + name + "\"", dir);
     m.name = name;
     named_materials_[name] = int(scene_.materials.size());
     scene_.materials.push_back(std::move(m));
@@ -811,24 +816,16 @@ void Parser::area_light_source(Tokenizer& tok, const Token& d) {
   gs_.area_light = a;
 }
 
-// A material of a supported type with its defaults filled in (pbrt-v4 materials.cpp).
+// A material with its defaults filled in (host/scene/materials.cpp; pbrt-v4 materials.cpp and
+// pbrt-v3 src/materials); dir resolves a measured material's file name.
 Material Parser::make_material(const std::string& type, const ParamSet& ps, const SourceLoc& loc,
-                               const SourceLoc& type_loc, const std::string& what) {
-  Material m;
-  m.type = type;
-  m.loc = loc;
-  if (type == "diffuse") {
-    // pbrt-v4 DiffuseMaterial::Create: reflectance defaults to a constant 0.5.
-    if (const Param* p = ps.find("normalmap"))
-      throw SceneError(p->loc, "normal maps are not supported yet");
-    std::optional<glm::vec3> r = ps.get_spectrum("reflectance", SpectrumUse::Albedo, nullptr);
-    glm::vec3 v = r.value_or(glm::vec3(0.5f));
-    m.params["reflectance"] = MaterialParam{{v.x, v.y, v.z}, "", ps.loc_of("reflectance", loc)};
-  } else {
-    throw SceneError(type_loc, "material '" + type + "' is not supported yet");
-  }
-  ps.report_unused(what, scene_.warnings);
-  return m;
+                               const SourceLoc& type_loc, const std::string& what,
+                               const std::string& dir) {
+  MaterialContext ctx;
+  ctx.warnings = &scene_.warnings;
+  ctx.measured = &scene_.measured;
+  ctx.resolve = [this, dir](const std::string& name) { return resolve(name, dir); };
+  return parse_material(type, ps, loc, type_loc, what, ctx);
 }
 
 // End of input: unclosed scopes, named materials, emptiness, and values that depend on
@@ -842,6 +839,19 @@ Scene Parser::finish(const SourceLoc& eof) {
       throw SceneError(p.loc, "named material \"" + p.name + "\" is not defined");
     scene_.shapes[p.shape].material = it->second;
   }
+  // Mix materials name named materials, resolved at the end as pbrt-v4 does.
+  for (Material& m : scene_.materials) {
+    for (int i = 0; i < 2 && m.type == "mix"; ++i) {
+      auto it = named_materials_.find(m.mix_names[i]);
+      if (it == named_materials_.end())
+        throw SceneError(m.mix_locs[i],
+                         "mix refers to named material \"" + m.mix_names[i] + "\", which is not defined");
+      m.mix[i] = it->second;
+    }
+  }
+  // Everything the GPU tables need from materials is checked now, with locations (weighted
+  // mixes, nesting, texture references); build_tables repeats it for the final mix mode.
+  convert_materials(scene_, scene_.mix_mode, nullptr, nullptr);
   if (scene_.shapes.empty() && scene_.lights.empty())
     throw SceneError(eof, world_ ? "empty scene: no shapes or lights"
                                  : "empty scene: no shapes or lights (no WorldBegin)");
@@ -857,17 +867,17 @@ Scene Parser::finish(const SourceLoc& eof) {
 
 }  // namespace
 
-Scene load_scene(const std::string& path) {
+Scene load_scene(const std::string& path, MixMode mix_mode) {
   std::string dir = fs::path(path).parent_path().string();
-  Parser parser(dir);
+  Parser parser(dir, mix_mode);
   Tokenizer tok(read_scene_file(path, SourceLoc{path, 0, 0}, "scene file"), path);
   parser.parse(tok, dir);
   return parser.finish(tok.end_loc());
 }
 
 Scene load_scene_from_string(const std::string& text, const std::string& name,
-                             const std::string& base_dir) {
-  Parser parser(base_dir);
+                             const std::string& base_dir, MixMode mix_mode) {
+  Parser parser(base_dir, mix_mode);
   Tokenizer tok(text, name);
   parser.parse(tok, base_dir);
   return parser.finish(tok.end_loc());

@@ -2,6 +2,7 @@
 // Values are interpreted, defaulted and validated by the parser (pbrt-v4 semantics);
 // positions and directions are in world space unless a field says otherwise.
 #pragma once
+#include <cstdint>
 #include <glm/glm.hpp>
 #include <map>
 #include <optional>
@@ -60,19 +61,43 @@ struct Integrator {
   bool regularize = false;
 };
 
-/// A material parameter: a constant (1 or 3 floats) or a named texture (issue: textures).
+/// A material parameter: a constant (1 or 3 floats; 1 float of an rgb slot is grey) or a
+/// named texture (issue: textures). Keys of Material::params are the slot names of
+/// host/scene/materials.h (e.g. "reflectance", "uroughness", "Kd").
 struct MaterialParam {
   std::vector<float> value;
   std::string texture;  // empty for a constant
   SourceLoc loc;
 };
 
-/// A material: its pbrt-v4 type name and interpreted parameters (defaults filled in).
+/// How mix materials are rendered (the CLI's --mix): as each scene's syntax says (pbrt-v4
+/// `string materials` -> stochastic, pbrt-v3 `namedmaterial1/2` -> weighted), or forced.
+enum class MixMode { Auto, Stochastic, Weighted };
+
+/// A material: its type name as written in the scene ("diffuse", "matte", "mix", ...) and its
+/// interpreted parameters with pbrt's defaults filled in (docs/materials.md).
 struct Material {
-  std::string type;  // "diffuse", ...
+  std::string type;  // pbrt-v4 or pbrt-v3 material name; "interface" also for "" and "none"
   std::string name;  // named material name, or "" for anonymous
   std::map<std::string, MaterialParam> params;
   SourceLoc loc;
+  std::optional<std::uint32_t> flags;  // MATFLAG_*; unset: the kind's default remap
+  // mix: the two materials, by name (as written) and resolved index; aux1 gets `amount`
+  // (pbrt-v4: materials[1]; pbrt-v3: namedmaterial1).
+  std::string mix_names[2];
+  SourceLoc mix_locs[2];
+  int mix[2] = {-1, -1};
+  bool mix_v3 = false;    // pbrt-v3 syntax (namedmaterial1/2): weighted unless forced
+  int measured = -1;      // measured: index into Scene::measured
+  int max_depth = 10;     // coated*: pbrt-v4 LayeredBxDF maxdepth
+  int n_samples = 1;      // coated*: nsamples
+};
+
+/// A tabulated BRDF in pbrt-v2's MERL regular half-angle layout (host/scene/merl.h).
+struct MeasuredTable {
+  std::string path;
+  glm::uvec3 dims{0u};    // n theta_h, n theta_d, n phi_d
+  std::vector<float> rgb; // 3 per entry, index phi_d + nPhiD (theta_d + nThetaD theta_h)
 };
 
 /// Diffuse area light attached to a shape (pbrt-v4 DiffuseAreaLight).
@@ -120,14 +145,19 @@ struct Scene {
   std::vector<Material> materials;
   std::vector<Shape> shapes;
   std::vector<Light> lights;
+  std::vector<MeasuredTable> measured;  // each file once (Material::measured indexes it)
+  MixMode mix_mode = MixMode::Auto;     // set by the caller (--mix) before build_tables
   std::vector<std::string> warnings;  // "file:line:column: warning: ..."
 };
 
 /// \brief Parses a pbrt-v4 scene file (Include/Import resolved relative to each file).
+/// \p mix_mode (stored in Scene::mix_mode) decides how mix materials render; the materials
+/// are checked for it (e.g. a weighted mix of more than MAX_LOBES lobes is an error).
 /// \throws SceneError with the location of the first problem.
-Scene load_scene(const std::string& path);
+Scene load_scene(const std::string& path, MixMode mix_mode = MixMode::Auto);
 /// \brief Parses scene text; \p name is used in messages, \p base_dir resolves relative paths.
 Scene load_scene_from_string(const std::string& text, const std::string& name,
-                             const std::string& base_dir = ".");
+                             const std::string& base_dir = ".",
+                             MixMode mix_mode = MixMode::Auto);
 
 }  // namespace basalt

@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "accel/bvh.h"
+#include "scene/materials.h"
 
 namespace basalt {
 namespace {
@@ -43,30 +44,6 @@ gpu::Material diffuse_material(const glm::vec3& reflectance) {
   m.value[gpu::SLOT_DIFFUSE_REFLECTANCE] = glm::vec4(reflectance, 0.0f);
   for (auto& t : m.texture) t = glm::uvec4(INVALID_INDEX);
   return m;
-}
-
-// A constant rgb material parameter (1 value = grey); textures come with a later issue.
-glm::vec3 rgb_param(const Material& m, const std::string& name, glm::vec3 fallback) {
-  auto it = m.params.find(name);
-  if (it == m.params.end()) return fallback;
-  const MaterialParam& p = it->second;
-  const SourceLoc& loc = p.loc.file.empty() ? m.loc : p.loc;
-  if (!p.texture.empty())
-    throw SceneError(loc, "texture '" + p.texture + "' for '" + name + "' is not supported yet");
-  glm::vec3 v;
-  if (p.value.size() == 1)
-    v = glm::vec3(p.value[0]);
-  else if (p.value.size() == 3)
-    v = glm::vec3(p.value[0], p.value[1], p.value[2]);
-  else
-    throw SceneError(loc, "'" + name + "' needs 1 or 3 values");
-  if (!all_finite(v)) throw SceneError(loc, "'" + name + "' is not finite");
-  return v;
-}
-
-gpu::Material convert_material(const Material& m) {
-  if (m.type == "diffuse") return diffuse_material(rgb_param(m, "reflectance", glm::vec3(0.5f)));
-  throw SceneError(m.loc, "material '" + m.type + "' is not supported yet");
 }
 
 // Screen window (pbrt-v4 CameraBase / PerspectiveCamera): the shorter image axis spans [-1, 1].
@@ -184,8 +161,9 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
     throw SceneError(scene.film.loc, "image resolution must be positive");
 
   // ---- materials -------------------------------------------------------------------------
-  t.materials.reserve(scene.materials.size() + 1);
-  for (const Material& m : scene.materials) t.materials.push_back(convert_material(m));
+  // docs/materials-spec.md section 3 slots; mixes as Scene::mix_mode says; measured tables
+  // appended to t.measured.
+  t.materials = convert_materials(scene, scene.mix_mode, &t.measured, warnings);
   std::uint32_t default_material = INVALID_INDEX;  // diffuse 0.5, appended on first use
   auto material_of = [&](const Shape& s) -> std::uint32_t {
     if (s.material < 0) {
@@ -470,8 +448,7 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
   if (!t.triangles.empty()) t.features |= gpu::FEATURE_TRIANGLES;
   if (!t.spheres.empty()) t.features |= gpu::FEATURE_SPHERES;
   if (t.lights.size() > scene.lights.size()) t.features |= gpu::FEATURE_LIGHT_AREA;
-  for (const gpu::Material& m : t.materials)
-    if (m.type == gpu::MATERIAL_DIFFUSE) t.features |= gpu::FEATURE_MAT_DIFFUSE;
+  for (const gpu::Material& m : t.materials) t.features |= material_feature(m.type);
   if (cam.lens_radius > 0.0f) t.features |= gpu::FEATURE_THIN_LENS;
   g.features = glm::uvec4(t.features, 0u, 0u, 0u);
   return t;
@@ -479,9 +456,34 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
 
 std::vector<std::string> feature_names(std::uint32_t features) {
   static const char* const kNames[gpu::FEATURE_COUNT] = {
-      "triangles",        "spheres",         "light_point", "light_spot",
-      "light_distant",    "light_infinite",  "light_area",  "material_diffuse",
-      "filter_gaussian",  "thin_lens",       "shading_normals"};
+      "triangles",
+      "spheres",
+      "light_point",
+      "light_spot",
+      "light_distant",
+      "light_infinite",
+      "light_area",
+      "material_diffuse",
+      "filter_gaussian",
+      "thin_lens",
+      "shading_normals",
+      "material_oren_nayar",
+      "material_conductor",
+      "material_dielectric",
+      "material_thin_dielectric",
+      "material_diffuse_transmission",
+      "material_coated_diffuse",
+      "material_coated_conductor",
+      "material_plastic",
+      "material_substrate",
+      "material_translucent",
+      "material_uber",
+      "material_measured",
+      "material_mix",
+      "material_mix_weighted",
+      "material_interface",
+      "material_mirror",
+      "material_metal"};
   std::vector<std::string> names;
   for (std::uint32_t bit = 0; bit < gpu::FEATURE_COUNT; ++bit)
     if (features & (1u << bit)) names.emplace_back(kNames[bit]);

@@ -9,6 +9,7 @@ namespace basalt {
 /// Everything --stats reports (keys named as in the JSON).
 struct RenderStats {
   std::string device, driver, scene;
+  std::string shader_variant;  // Vulkan render shader build ("lean" or "full"); empty on cpu
   int width = 0, height = 0, spp = 0, seed = 0;
   double seconds_parse = 0, seconds_bvh = 0, seconds_upload = 0, seconds_pipeline = 0,
          seconds_render = 0;

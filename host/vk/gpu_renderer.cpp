@@ -12,6 +12,7 @@
 
 #include "shaders/probe.spv.h"
 #include "shaders/render.spv.h"
+#include "shaders/render_lean.spv.h"
 
 namespace basalt::vkx {
 
@@ -42,10 +43,29 @@ const char* kTableNames[] = {"globals", "BVH nodes", "primitive refs", "triangle
                              "lights",   "light cdf", "filter table",   "accumulation", "counters",
                              "measured BRDF"};
 
+/// Feature bits the lean render shader (BASALT_LEAN_MATERIALS) implements: everything but
+/// the material kinds other than diffuse. A feature added to layout.h later is not in this
+/// list, so it gets the full shader until someone checks the lean one handles it.
+constexpr std::uint32_t kLeanFeatures =
+    gpu::FEATURE_TRIANGLES | gpu::FEATURE_SPHERES | gpu::FEATURE_LIGHT_POINT |
+    gpu::FEATURE_LIGHT_SPOT | gpu::FEATURE_LIGHT_DISTANT | gpu::FEATURE_LIGHT_INFINITE |
+    gpu::FEATURE_LIGHT_AREA | gpu::FEATURE_MAT_DIFFUSE | gpu::FEATURE_FILTER_GAUSSIAN |
+    gpu::FEATURE_THIN_LENS | gpu::FEATURE_SHADING_NORMALS;
+
 }  // namespace
 
-GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t features)
+bool GpuRenderer::lean_suffices(std::uint32_t features) {
+  return (features & ~kLeanFeatures) == 0u;
+}
+
+GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t features,
+                         ShaderVariant which)
     : ctx_(ctx), width_(t.width()), height_(t.height()) {
+  if (which == ShaderVariant::lean && !lean_suffices(features))
+    throw std::invalid_argument("the lean render shader cannot render feature bits " +
+                                std::to_string(features));
+  const bool lean = which != ShaderVariant::full && lean_suffices(features);
+  variant = lean ? "lean" : "full";
   // Invocations cover 8x8 pixel tiles (one workgroup each): slots_ is the tile-padded count.
   const std::uint32_t tiles = ((width_ + 7) / 8) * ((height_ + 7) / 8);
   slots_ = tiles * 64;
@@ -92,7 +112,8 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   t0 = Clock::now();
   std::vector<std::pair<std::uint32_t, Buffer*>> bindings;
   for (std::uint32_t i = 0; i < tables_.size(); ++i) bindings.push_back({i, &tables_[i]});
-  render_ = make_pipeline(render_spv, sizeof(render_spv), features, bindings);
+  render_ = lean ? make_pipeline(render_lean_spv, sizeof(render_lean_spv), features, bindings)
+                 : make_pipeline(render_spv, sizeof(render_spv), features, bindings);
   // lavapipe compiles at first dispatch: an empty pass makes that cost part of pipeline time.
   dispatch(render_, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, 0}, 1);
   seconds_pipeline = since(t0);

@@ -3,6 +3,7 @@
 #pragma once
 #include <cstdint>
 #include <functional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -13,13 +14,22 @@
 
 namespace basalt::vkx {
 
+/// Which build of shaders/render.comp renders: `full` (every material kind) or `lean`
+/// (compiled with BASALT_LEAN_MATERIALS: MATERIAL_DIFFUSE only, for scenes whose feature
+/// bits have no FEATURE_MAT_* other than FEATURE_MAT_DIFFUSE); `automatic` picks lean
+/// whenever it can render the features. Both are specialised for the features.
+enum class ShaderVariant { automatic, full, lean };
+
 /// Renders one SceneTables on one Context. Tables are uploaded at construction.
 class GpuRenderer {
  public:
   /// \brief Uploads \p tables and creates the render pipeline specialised for \p features.
   /// \param features feature bits for the specialization constant; defaults to the scene's.
+  /// \param variant the render shader build (see ShaderVariant); automatic by default.
   /// \throws std::runtime_error if a table exceeds the device's maxStorageBufferRange.
-  GpuRenderer(Context& ctx, const SceneTables& tables, std::uint32_t features);
+  /// \throws std::invalid_argument if \p variant is lean and lean_suffices(features) is false.
+  GpuRenderer(Context& ctx, const SceneTables& tables, std::uint32_t features,
+              ShaderVariant variant = ShaderVariant::automatic);
   GpuRenderer(Context& ctx, const SceneTables& tables)
       : GpuRenderer(ctx, tables, tables.features) {}
   ~GpuRenderer();
@@ -39,12 +49,17 @@ class GpuRenderer {
   std::uint64_t nonfinite_samples() const { return nonfinite_; }
   /// \brief Zeroes the accumulation buffer and the ray count.
   void clear();
+  /// \brief True if the lean render shader renders scenes with feature bits \p features
+  ///        exactly as the full one does (no feature it lacks, i.e. no FEATURE_MAT_* other
+  ///        than FEATURE_MAT_DIFFUSE and no bit it does not know).
+  static bool lean_suffices(std::uint32_t features);
   /// \brief Runs shaders/tests/probe.comp over \p queries (GPU twin of basalt::cpu::probe).
   std::vector<gpu::ProbeOut> probe(const std::vector<gpu::ProbeIn>& queries);
 
   double seconds_upload = 0.0;    // table upload
   double seconds_pipeline = 0.0;  // pipeline creation plus the driver's compile at first use
   std::uint64_t device_bytes = 0; // bytes of all scene tables on the device
+  std::string variant;            // render shader build in use: "lean" or "full"
 
  private:
   struct Pipeline {

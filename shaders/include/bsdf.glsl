@@ -1,97 +1,631 @@
-// BSDFs in the local shading frame (z = shading normal), one switch on Material.type per
-// operation (docs/path-spec.md section 8). Needs bindings.glsl.
+// The BSDF at a surface point (docs/materials-spec.md sections 1, 3 and 4): material ->
+// lobes, stochastic mix resolution, and bsdf_eval / bsdf_pdf / bsdf_sample over the lobes with
+// the light-leak rule of the geometric normal. Directions are in the local shading frame
+// (z = shading normal); ng is the geometric normal in that frame. Needs bindings.glsl.
 #ifndef BASALT_BSDF_GLSL
 #define BASALT_BSDF_GLSL
 
 #include "math.glsl"
+#include "rng.glsl"
 #include "sampling.glsl"
 #include "surface.glsl"
+#include "microfacet.glsl"
+#include "fresnel.glsl"
+#include "lobes.glsl"
+#include "layered.glsl"
 
+// The lean variant of the render shader (render_lean.spv, compiled with
+// -DBASALT_LEAN_MATERIALS=1; the host picks it when the scene's only material feature is
+// FEATURE_MAT_DIFFUSE) keeps MATERIAL_DIFFUSE only: the code of every other material kind
+// and what only they need (lobe lists, mixes, interfaces, the stochastic lobes) is removed by
+// the preprocessor wherever `#if BSDF_ALL_MATERIALS` guards it. lavapipe inlines every call
+// before it folds FEATURES, so code gated by FEATURES alone still costs compile time.
+#ifdef BASALT_LEAN_MATERIALS
+#define BSDF_ALL_MATERIALS 0
+#else
+#define BSDF_ALL_MATERIALS 1
+#endif
 
-// The BSDF at a surface point: the material's type tag and its slot values evaluated there
-// (constants now; textures later issues).
+// The lobes of the current BSDF. One BSDF is live at a time per invocation (the integrator's
+// current vertex, or the probe's query), so its lobe list lives here rather than being copied
+// with every Bsdf argument: a Bsdf is valid until the next bsdf_at / bsdf_build.
+Lobe bsdf_lobes[MAX_LOBES];
+
+// Material kinds whose BSDFs may have more than one lobe (section 3). Without them every index
+// folds to 0 at specialisation, and the constant-indexed lobe stays in registers instead of
+// scratch memory (lavapipe: a diffuse scene renders 20% faster).
+const uint MULTI_LOBE_FEATURES = FEATURE_MAT_PLASTIC | FEATURE_MAT_TRANSLUCENT |
+                                 FEATURE_MAT_UBER | FEATURE_MAT_MIX_WEIGHTED;
+#if BSDF_ALL_MATERIALS
+const bool BSDF_ONE_LOBE = (FEATURES & MULTI_LOBE_FEATURES) == 0u;
+#else
+const bool BSDF_ONE_LOBE = true;
+#endif
+
+// Index of lobe k in bsdf_lobes (0 when no material of the scene has several lobes).
+uint lobe_slot(uint k) { return BSDF_ONE_LOBE ? 0u : k; }
+
+// Lobe k of the current BSDF.
+Lobe bsdf_lobe(uint k) { return bsdf_lobes[lobe_slot(k)]; }
+
+// The BSDF at a surface point: lobe count (lobes in bsdf_lobes), union of the lobe flags, and
+// the material after mix resolution (index, MATERIAL_* type; INVALID_INDEX / NONE if none).
 struct Bsdf {
-  uint type;
-  vec3 r;  // diffuse: reflectance
-};
-
-// A sampled direction: f, incident direction wi (local), pdf and BSDF_* flags;
-// pdf == 0 means no sample.
-struct BsdfSample {
-  vec3 f;
-  float pdf;
-  vec3 wi;
+  uint n;
   uint flags;
+  uint material;
+  uint type;
 };
 
-// Evaluates the slots of material m at surface point sp into a Bsdf.
-Bsdf bsdf_at(uint m, SurfacePoint sp) {
-  Bsdf bsdf;
-  bsdf.type = m == INVALID_INDEX ? 0u : materials[m].type;
-  bsdf.r = vec3(0.0);
-  switch (bsdf.type) {
-    case MATERIAL_DIFFUSE:
-      if ((FEATURES & FEATURE_MAT_DIFFUSE) != 0u)
-        bsdf.r = materials[m].value[SLOT_DIFFUSE_REFLECTANCE].xyz;
-      break;
-    default:
-      break;
+// Slot value of material m at surface point sp: the constant now; the textures issue
+// evaluates Material.texture[slot / 4][slot % 4] here when it is not INVALID_INDEX.
+vec4 slot_value(uint m, uint slot, SurfacePoint sp) { return materials[m].value[slot]; }
+
+// Alpha of a roughness slot (docs/materials-spec.md 1.4).
+float slot_alpha(uint m, uint slot, SurfacePoint sp) {
+  return roughness_to_alpha(slot_value(m, slot, sp).x, materials[m].flags);
+}
+
+// pbrt-v4 MixMaterial::ChooseMaterial's hash as docs/materials-spec.md section 4 fixes it: a
+// uniform float from the hit point and wo without their low 12 bits (q(x) = bits(x) >> 12, so
+// that last-bit differences between the renderers rarely change the choice) and the mix's
+// index.
+float mix_hash(vec3 p, vec3 wo, uint index) {
+  uvec3 qp = floatBitsToUint(p) >> 12u, qw = floatBitsToUint(wo) >> 12u;
+  uint w = qw.x ^ (qw.y * 0x9E3779B9u) ^ (qw.z * 0x85EBCA6Bu);
+  uvec4 v = pcg4d(uvec4(qp.x, qp.y, qp.z ^ (index * 0xC2B2AE35u), w));
+  return float(v.x >> 8u) * (1.0 / 16777216.0);
+}
+
+// True if m indexes the material table.
+bool material_valid(uint m) { return m < uint(materials.length()); }
+
+// Resolves stochastic mixes (docs/materials-spec.md section 4) from material m at surface
+// point sp with wo = -ray direction (world): the chosen material, or INVALID_INDEX (none) for
+// an invalid index or more than 16 nested mixes.
+uint mix_resolve(uint m, SurfacePoint sp, vec3 wo) {
+#if !BSDF_ALL_MATERIALS
+  return m;
+#else
+  if (!has_feature(FEATURE_MAT_MIX)) return m;
+  [[dont_unroll]] for (uint level = 0u; level <= 16u; ++level) {
+    if (!material_valid(m) || materials[m].type != MATERIAL_MIX) return m;
+    if (level == 16u) break;
+    float a = slot_value(m, SLOT_MIX_AMOUNT, sp).x;
+    if (a <= 0.0) m = materials[m].aux0;
+    else if (a >= 1.0) m = materials[m].aux1;
+    else m = a < mix_hash(sp.p, wo, m) ? materials[m].aux0 : materials[m].aux1;
   }
-  return bsdf;
+  return INVALID_INDEX;
+#endif
 }
 
-// True if the BSDF is a pure delta distribution (no light sampling, no MIS).
-bool bsdf_is_specular(Bsdf bsdf) {
-  return false;  // diffuse is the only type so far
+// A lobe with every parameter zero.
+Lobe lobe_new(uint tag, vec3 weight, uint flags, uint bits) {
+  return Lobe(tag, bits | (flags << LOBEBIT_FLAGS_SHIFT), 0u, 0u, weight, vec4(0.0), vec4(0.0),
+              vec4(0.0), vec4(0.0));
 }
 
-// f(wo, wi) in the local frame (pbrt-v4 BxDF::f).
-vec3 bsdf_eval(Bsdf bsdf, vec3 wo, vec3 wi) {
-  switch (bsdf.type) {
-    case MATERIAL_DIFFUSE:
-      // pbrt-v4 9.2 DiffuseBxDF: R / pi in the same hemisphere.
-      if ((FEATURES & FEATURE_MAT_DIFFUSE) != 0u && wo.z * wi.z > 0.0) return bsdf.r / PI;
-      break;
-    default:
-      break;
+// Appends L to the lobe list if its weight has a component > 0 and there is room.
+void lobe_add(inout Bsdf b, Lobe L) {
+  if (!any_positive(L.weight) || b.n >= MAX_LOBES) return;
+  bsdf_lobes[lobe_slot(b.n)] = L;
+  b.n++;
+  b.flags |= lobe_flags(L);
+}
+
+// MICROFACET_R (or SPECULAR_R when effectively smooth) with Fresnel `fresnel`: dielectric eta,
+// or conductor eta, k.
+void add_microfacet_r(inout Bsdf b, vec3 weight, float ax, float ay, uint mflags, uint fresnel,
+                      float eta, vec3 ceta, vec3 ck) {
+  bool smooth_ = max(ax, ay) < 1e-3;
+  uint bits = fresnel | ((mflags & MATFLAG_BECKMANN) != 0u ? LOBEBIT_BECKMANN : 0u);
+  Lobe L = lobe_new(smooth_ ? LOBE_SPECULAR_R : LOBE_MICROFACET_R, weight,
+                    BSDF_REFLECTION | (smooth_ ? BSDF_SPECULAR : BSDF_GLOSSY), bits);
+  L.p0 = vec4(mf_alphas(ax, ay), eta, 0.0);
+  L.p1.xyz = ceta;
+  L.p2.xyz = ck;
+  lobe_add(b, L);
+}
+
+// MICROFACET_T (or SPECULAR_T when effectively smooth) with IOR eta.
+void add_microfacet_t(inout Bsdf b, vec3 weight, float ax, float ay, uint mflags, float eta) {
+  bool smooth_ = max(ax, ay) < 1e-3;
+  uint bits = (mflags & MATFLAG_BECKMANN) != 0u ? LOBEBIT_BECKMANN : 0u;
+  Lobe L = lobe_new(smooth_ ? LOBE_SPECULAR_T : LOBE_MICROFACET_T, weight,
+                    BSDF_TRANSMISSION | (smooth_ ? BSDF_SPECULAR : BSDF_GLOSSY), bits);
+  L.p0 = vec4(mf_alphas(ax, ay), eta, 0.0);
+  lobe_add(b, L);
+}
+
+// Conductor eta and k of a material (docs/materials-spec.md section 3, CONDUCTOR): the slots,
+// or with MATFLAG_USE_REFLECTANCE eta = 1, k = 2 sqrt(r) / sqrt(1 - r) (pbrt-v4
+// ConductorMaterial) with r = clamp(reflectance, 0, 0.9999).
+void conductor_eta_k(uint m, uint slot_eta, uint slot_k, uint slot_r, SurfacePoint sp,
+                     out vec3 eta, out vec3 k) {
+  if ((materials[m].flags & MATFLAG_USE_REFLECTANCE) != 0u) {
+    vec3 r = clamp(slot_value(m, slot_r, sp).xyz, 0.0, 0.9999);
+    eta = vec3(1.0);
+    precise vec3 kk = 2.0 * sqrt(r) / sqrt(vec3(1.0) - r);
+    k = kk;
+  } else {
+    eta = slot_value(m, slot_eta, sp).xyz;
+    k = slot_value(m, slot_k, sp).xyz;
   }
-  return vec3(0.0);
 }
 
-// Solid-angle pdf with which bsdf_sample produces wi given wo (pbrt-v4 BxDF::PDF).
-float bsdf_pdf(Bsdf bsdf, vec3 wo, vec3 wi) {
-  switch (bsdf.type) {
+// Appends the lobes of (non-mix) material m, weights scaled by `scale`
+// (docs/materials-spec.md section 3).
+void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
+  if (!material_valid(m)) return;
+  uint type = materials[m].type;
+  uint mflags = materials[m].flags;
+  uint beck = (mflags & MATFLAG_BECKMANN) != 0u ? LOBEBIT_BECKMANN : 0u;
+  switch (type) {
     case MATERIAL_DIFFUSE:
-      // Cosine-weighted hemisphere of wo (pbrt-v4 A.5.3 CosineHemispherePDF).
-      if ((FEATURES & FEATURE_MAT_DIFFUSE) != 0u && wo.z * wi.z > 0.0) return abs(wi.z) / PI;
+      if (has_feature(FEATURE_MAT_DIFFUSE))
+        lobe_add(b, lobe_new(LOBE_LAMBERT_R, scale * slot_value(m, SLOT_DIFFUSE_REFLECTANCE, sp).xyz,
+                             BSDF_REFLECTION | BSDF_DIFFUSE, 0u));
       break;
-    default:
-      break;
-  }
-  return 0.0;
-}
-
-// Samples wi given wo with u = (lobe choice, direction u0, u1) (pbrt-v4 BxDF::Sample_f;
-// docs/path-spec.md sections 1 and 8).
-BsdfSample bsdf_sample(Bsdf bsdf, vec3 wo, vec3 u) {
-  BsdfSample bs = BsdfSample(vec3(0.0), 0.0, vec3(0.0, 0.0, 1.0), 0u);
-  switch (bsdf.type) {
-    case MATERIAL_DIFFUSE:
-      if ((FEATURES & FEATURE_MAT_DIFFUSE) != 0u) {
-        // pbrt-v4 A.5.3 SampleCosineHemisphere (Malley's method), flipped to wo's side.
-        vec2 d = concentric_disk(u.yz);
-        vec3 wi = vec3(d.x, d.y, safe_sqrt(1.0 - d.x * d.x - d.y * d.y));
-        if (wo.z < 0.0) wi.z = -wi.z;
-        bs.wi = wi;
-        bs.f = bsdf_eval(bsdf, wo, wi);
-        bs.pdf = bsdf_pdf(bsdf, wo, wi);
-        bs.flags = BSDF_REFLECTION | BSDF_DIFFUSE;
+#if BSDF_ALL_MATERIALS
+    case MATERIAL_OREN_NAYAR:
+      if (has_feature(FEATURE_MAT_OREN_NAYAR)) {
+        vec3 kd = scale * slot_value(m, SLOT_ON_REFLECTANCE, sp).xyz;
+        float sigma = slot_value(m, SLOT_ON_SIGMA, sp).x;
+        if (sigma == 0.0) {
+          lobe_add(b, lobe_new(LOBE_LAMBERT_R, kd, BSDF_REFLECTION | BSDF_DIFFUSE, 0u));
+        } else {
+          // pbrt-v3 OrenNayar constructor: A, B from sigma in radians.
+          Lobe L = lobe_new(LOBE_OREN_NAYAR, kd, BSDF_REFLECTION | BSDF_DIFFUSE, 0u);
+          precise float sr = (PI / 180.0) * sigma;
+          precise float s2 = sr * sr;
+          precise float A = 1.0 - (s2 / (2.0 * (s2 + 0.33)));
+          precise float B = 0.45 * s2 / (s2 + 0.09);
+          L.p0.xy = vec2(A, B);
+          lobe_add(b, L);
+        }
       }
       break;
+    case MATERIAL_CONDUCTOR:
+      if (has_feature(FEATURE_MAT_CONDUCTOR)) {
+        Lobe L = lobe_new(LOBE_CONDUCTOR, scale, 0u, beck);
+        L.p0.xy = mf_alphas(slot_alpha(m, SLOT_CONDUCTOR_UROUGH, sp), slot_alpha(m, SLOT_CONDUCTOR_VROUGH, sp));
+        vec3 eta, k;
+        conductor_eta_k(m, SLOT_CONDUCTOR_ETA, SLOT_CONDUCTOR_K, SLOT_CONDUCTOR_REFLECTANCE, sp, eta, k);
+        L.p1.xyz = eta;
+        L.p2.xyz = k;
+        L.bits |= (BSDF_REFLECTION | (mf_smooth(lobe_dist(L)) ? BSDF_SPECULAR : BSDF_GLOSSY))
+                  << LOBEBIT_FLAGS_SHIFT;
+        lobe_add(b, L);
+      }
+      break;
+    case MATERIAL_METAL:
+      if (has_feature(FEATURE_MAT_METAL))
+        add_microfacet_r(b, scale, slot_alpha(m, SLOT_CONDUCTOR_UROUGH, sp),
+                         slot_alpha(m, SLOT_CONDUCTOR_VROUGH, sp), mflags, FRESNEL_CONDUCTOR, 1.0,
+                         slot_value(m, SLOT_CONDUCTOR_ETA, sp).xyz, slot_value(m, SLOT_CONDUCTOR_K, sp).xyz);
+      break;
+    case MATERIAL_MIRROR:
+      if (has_feature(FEATURE_MAT_MIRROR))
+        lobe_add(b, lobe_new(LOBE_SPECULAR_R, scale * slot_value(m, SLOT_MIRROR_KR, sp).xyz,
+                             BSDF_REFLECTION | BSDF_SPECULAR, FRESNEL_ONE));
+      break;
+    case MATERIAL_DIELECTRIC:
+      if (has_feature(FEATURE_MAT_DIELECTRIC)) {
+        Lobe L = lobe_new(LOBE_DIELECTRIC, scale, 0u, beck);
+        L.p0.xyz = vec3(mf_alphas(slot_alpha(m, SLOT_DIELECTRIC_UROUGH, sp), slot_alpha(m, SLOT_DIELECTRIC_VROUGH, sp)),
+                        slot_value(m, SLOT_DIELECTRIC_ETA, sp).x);
+        L.p1.xyz = slot_value(m, SLOT_DIELECTRIC_KR, sp).xyz;
+        L.p2.xyz = slot_value(m, SLOT_DIELECTRIC_KT, sp).xyz;
+        L.bits |= dielectric_flags(L.p0.z, lobe_dist(L)) << LOBEBIT_FLAGS_SHIFT;
+        lobe_add(b, L);
+      }
+      break;
+    case MATERIAL_THIN_DIELECTRIC:
+      if (has_feature(FEATURE_MAT_THIN_DIELECTRIC)) {
+        Lobe L = lobe_new(LOBE_THIN_DIELECTRIC, scale,
+                          BSDF_REFLECTION | BSDF_TRANSMISSION | BSDF_SPECULAR, 0u);
+        L.p0.z = slot_value(m, SLOT_THIN_ETA, sp).x;
+        lobe_add(b, L);
+      }
+      break;
+    case MATERIAL_DIFFUSE_TRANSMISSION:
+      if (has_feature(FEATURE_MAT_DIFFUSE_TRANSMISSION)) {
+        float s = slot_value(m, SLOT_DT_SCALE, sp).x;
+        vec3 R = s * slot_value(m, SLOT_DT_REFLECTANCE, sp).xyz;
+        vec3 T = s * slot_value(m, SLOT_DT_TRANSMITTANCE, sp).xyz;
+        uint flags = (nonzero(R) ? (BSDF_REFLECTION | BSDF_DIFFUSE) : 0u) |
+                     (nonzero(T) ? (BSDF_TRANSMISSION | BSDF_DIFFUSE) : 0u);
+        Lobe L = lobe_new(LOBE_DIFFUSE_TRANSMISSION, scale, flags, 0u);
+        L.p1.xyz = R;
+        L.p2.xyz = T;
+        lobe_add(b, L);
+      }
+      break;
+    case MATERIAL_COATED_DIFFUSE:
+    case MATERIAL_COATED_CONDUCTOR:
+      if ((type == MATERIAL_COATED_DIFFUSE && has_feature(FEATURE_MAT_COATED_DIFFUSE)) ||
+          (type == MATERIAL_COATED_CONDUCTOR && has_feature(FEATURE_MAT_COATED_CONDUCTOR))) {
+        bool cd = type == MATERIAL_COATED_DIFFUSE;
+        Lobe L = lobe_new(cd ? LOBE_LAYERED_DIFFUSE : LOBE_LAYERED_CONDUCTOR, scale, 0u, beck);
+        L.aux = (materials[m].aux0 & 0xffffu) | (materials[m].aux1 << 16u);
+        if (cd) {
+          L.p0 = vec4(mf_alphas(slot_alpha(m, SLOT_CD_UROUGH, sp), slot_alpha(m, SLOT_CD_VROUGH, sp)),
+                      slot_value(m, SLOT_CD_ETA, sp).x, slot_value(m, SLOT_CD_THICKNESS, sp).x);
+          L.p1 = vec4(slot_value(m, SLOT_CD_ALBEDO, sp).xyz, slot_value(m, SLOT_CD_G, sp).x);
+          L.p2.xyz = slot_value(m, SLOT_CD_REFLECTANCE, sp).xyz;
+        } else {
+          L.p0 = vec4(mf_alphas(slot_alpha(m, SLOT_CC_IF_UROUGH, sp), slot_alpha(m, SLOT_CC_IF_VROUGH, sp)),
+                      slot_value(m, SLOT_CC_IF_ETA, sp).x, slot_value(m, SLOT_CC_THICKNESS, sp).x);
+          L.p1 = vec4(slot_value(m, SLOT_CC_ALBEDO, sp).xyz, slot_value(m, SLOT_CC_G, sp).x);
+          vec3 eta, k;
+          conductor_eta_k(m, SLOT_CC_ETA, SLOT_CC_K, SLOT_CC_REFLECTANCE, sp, eta, k);
+          vec2 a = mf_alphas(slot_alpha(m, SLOT_CC_UROUGH, sp), slot_alpha(m, SLOT_CC_VROUGH, sp));
+          L.p2 = vec4(eta, a.x);
+          L.p3 = vec4(k, a.y);
+        }
+        L.bits |= layered_flags(layers_of(L)) << LOBEBIT_FLAGS_SHIFT;
+        lobe_add(b, L);
+      }
+      break;
+    case MATERIAL_PLASTIC:
+      if (has_feature(FEATURE_MAT_PLASTIC)) {
+        lobe_add(b, lobe_new(LOBE_LAMBERT_R, scale * slot_value(m, SLOT_PLASTIC_KD, sp).xyz,
+                             BSDF_REFLECTION | BSDF_DIFFUSE, 0u));
+        float a = slot_alpha(m, SLOT_PLASTIC_ROUGH, sp);
+        add_microfacet_r(b, scale * slot_value(m, SLOT_PLASTIC_KS, sp).xyz, a, a, mflags,
+                         FRESNEL_DIELECTRIC, 1.5, vec3(0.0), vec3(0.0));
+      }
+      break;
+    case MATERIAL_SUBSTRATE:
+      if (has_feature(FEATURE_MAT_SUBSTRATE)) {
+        Lobe L = lobe_new(LOBE_FRESNEL_BLEND, scale, BSDF_REFLECTION | BSDF_GLOSSY, beck);
+        L.p0.xy = max(vec2(slot_alpha(m, SLOT_SUBSTRATE_UROUGH, sp), slot_alpha(m, SLOT_SUBSTRATE_VROUGH, sp)),
+                      vec2(1e-3));
+        L.p1.xyz = slot_value(m, SLOT_SUBSTRATE_KD, sp).xyz;
+        L.p2.xyz = slot_value(m, SLOT_SUBSTRATE_KS, sp).xyz;
+        lobe_add(b, L);
+      }
+      break;
+    case MATERIAL_TRANSLUCENT:
+      if (has_feature(FEATURE_MAT_TRANSLUCENT)) {
+        vec3 r = slot_value(m, SLOT_TRANSLUCENT_REFLECT, sp).xyz;
+        vec3 t = slot_value(m, SLOT_TRANSLUCENT_TRANSMIT, sp).xyz;
+        if (any_positive(r) || any_positive(t)) {
+          vec3 kd = slot_value(m, SLOT_TRANSLUCENT_KD, sp).xyz;
+          vec3 ks = slot_value(m, SLOT_TRANSLUCENT_KS, sp).xyz;
+          float a = slot_alpha(m, SLOT_TRANSLUCENT_ROUGH, sp);
+          lobe_add(b, lobe_new(LOBE_LAMBERT_R, scale * (r * kd), BSDF_REFLECTION | BSDF_DIFFUSE, 0u));
+          lobe_add(b, lobe_new(LOBE_LAMBERT_T, scale * (t * kd), BSDF_TRANSMISSION | BSDF_DIFFUSE, 0u));
+          add_microfacet_r(b, scale * (r * ks), a, a, mflags, FRESNEL_DIELECTRIC, 1.5, vec3(0.0),
+                           vec3(0.0));
+          add_microfacet_t(b, scale * (t * ks), a, a, mflags, 1.5);
+        }
+      }
+      break;
+    case MATERIAL_UBER:
+      if (has_feature(FEATURE_MAT_UBER)) {
+        vec3 op = slot_value(m, SLOT_UBER_OPACITY, sp).xyz;
+        float eta = slot_value(m, SLOT_UBER_ETA, sp).x;
+        Lobe pass = lobe_new(LOBE_SPECULAR_T, scale * (vec3(1.0) - op),
+                             BSDF_TRANSMISSION | BSDF_SPECULAR, 0u);
+        pass.p0.z = 1.0;
+        lobe_add(b, pass);
+        lobe_add(b, lobe_new(LOBE_LAMBERT_R, scale * (op * slot_value(m, SLOT_UBER_KD, sp).xyz),
+                             BSDF_REFLECTION | BSDF_DIFFUSE, 0u));
+        add_microfacet_r(b, scale * (op * slot_value(m, SLOT_UBER_KS, sp).xyz),
+                         slot_alpha(m, SLOT_UBER_UROUGH, sp), slot_alpha(m, SLOT_UBER_VROUGH, sp),
+                         mflags, FRESNEL_DIELECTRIC, eta, vec3(0.0), vec3(0.0));
+        Lobe sr = lobe_new(LOBE_SPECULAR_R, scale * (op * slot_value(m, SLOT_UBER_KR, sp).xyz),
+                           BSDF_REFLECTION | BSDF_SPECULAR, FRESNEL_DIELECTRIC);
+        sr.p0.z = eta;
+        lobe_add(b, sr);
+        Lobe st = lobe_new(LOBE_SPECULAR_T, scale * (op * slot_value(m, SLOT_UBER_KT, sp).xyz),
+                           BSDF_TRANSMISSION | BSDF_SPECULAR, 0u);
+        st.p0.z = eta;
+        lobe_add(b, st);
+      }
+      break;
+    case MATERIAL_MEASURED:
+      if (has_feature(FEATURE_MAT_MEASURED)) {
+        Lobe L = lobe_new(LOBE_MEASURED, scale, BSDF_REFLECTION | BSDF_GLOSSY, 0u);
+        L.aux = materials[m].aux0;
+        L.p0.xyz = materials[m].value[SLOT_MEASURED_DIMS].xyz;
+        lobe_add(b, L);
+      }
+      break;
+#endif
     default:
       break;
   }
-  return bs;
+}
+
+// The BSDF of the already mix-resolved material m at sp (docs/materials-spec.md section 3):
+// its lobes, or those of both MIX_WEIGHTED children with weights x (1 - amount) and x amount.
+Bsdf bsdf_build(uint m, SurfacePoint sp) {
+  Bsdf b = Bsdf(0u, 0u, m, MATERIAL_NONE);
+  if (!material_valid(m)) {
+    b.material = INVALID_INDEX;
+    return b;
+  }
+  b.type = materials[m].type;
+#if !BSDF_ALL_MATERIALS
+  add_material_lobes(b, m, vec3(1.0), sp);
+#else
+  uint count = 1u;
+  vec3 amount = vec3(0.0);
+  if (has_feature(FEATURE_MAT_MIX_WEIGHTED) && b.type == MATERIAL_MIX_WEIGHTED) {
+    count = 2u;
+    amount = clamp(slot_value(m, SLOT_MIX_AMOUNT, sp).xyz, 0.0, 1.0);
+  }
+  // One call site for the material switch, whatever the count.
+  [[dont_unroll]] for (uint c = 0u; c < count; ++c) {
+    uint mc = m;
+    vec3 scale = vec3(1.0);
+    if (count == 2u) {
+      mc = c == 0u ? materials[m].aux0 : materials[m].aux1;
+      scale = c == 0u ? vec3(1.0) - amount : amount;
+    }
+    add_material_lobes(b, mc, scale, sp);
+  }
+#endif
+  return b;
+}
+
+// The BSDF of material `material` at sp seen from wo_world (-ray direction): stochastic mixes
+// resolved (section 4), then its lobes (section 3).
+Bsdf bsdf_at(uint material, SurfacePoint sp, vec3 wo_world) {
+  return bsdf_build(mix_resolve(material, sp, wo_world), sp);
+}
+
+// Union of the lobe flags (BSDF_*); non-specular if it has BSDF_DIFFUSE or BSDF_GLOSSY.
+uint bsdf_flags(Bsdf b) { return b.flags; }
+
+// What a lobe or BSDF query computes: f(wo, wi), pdf(wo, wi), or a sample.
+const uint QUERY_F = 1u;
+const uint QUERY_PDF = 2u;
+const uint QUERY_SAMPLE = 4u;
+
+// One lobe's f (without its weight; 0 for specular lobes) and/or pdf (0 for specular lobes) at
+// (wo, wi), or its sample with u = (u_lobe', u0, u1) (QUERY_SAMPLE), f without the weight;
+// stochastic lobes draw from `stream`. One switch for the three operations, so that every
+// lobe's code is inlined once per call site of this function (bsdf_query has one).
+void lobe_query(Lobe L, uint q, vec3 wo, vec3 wi, vec3 u, uvec4 stream, out vec3 f,
+                out float pdf, out BsdfSample bs) {
+  f = vec3(0.0);
+  pdf = 0.0;
+  bs = no_sample();
+  bool smp = q == QUERY_SAMPLE;
+  bool same = same_hemisphere(wo, wi);
+  switch (L.tag) {
+    case LOBE_LAMBERT_R:
+    case LOBE_OREN_NAYAR:
+    case LOBE_MEASURED:
+    case LOBE_LAMBERT_T:
+      if (has_feature(LOBE_FEATURES_LAMBERT_R | LOBE_FEATURES_OREN_NAYAR | LOBE_FEATURES_MEASURED |
+                      LOBE_FEATURES_LAMBERT_T)) {
+        // Cosine-weighted hemisphere lobes: pbrt-v4 DiffuseBxDF sampling (pbrt-v3 BxDF default
+        // Sample_f for Oren-Nayar and measured), on the side opposite wo for LAMBERT_T.
+        bool trans = has_feature(LOBE_FEATURES_LAMBERT_T) && L.tag == LOBE_LAMBERT_T;
+        if (smp) {
+          wi = cosine_hemisphere(u.yz);
+          if ((wo.z < 0.0) != trans) wi.z = -wi.z;
+          same = same_hemisphere(wo, wi);
+          uint flags = L.tag == LOBE_MEASURED ? BSDF_GLOSSY : BSDF_DIFFUSE;
+          bs = BsdfSample(vec3(0.0), cosine_pdf(wi), wi,
+                          flags | (trans ? BSDF_TRANSMISSION : BSDF_REFLECTION), 1.0, false);
+        }
+        if (same == trans) break;
+#if BSDF_ALL_MATERIALS
+        if (has_feature(LOBE_FEATURES_OREN_NAYAR) && L.tag == LOBE_OREN_NAYAR)
+          f = vec3(oren_nayar_f(L.p0.xy, wo, wi));
+        else if (has_feature(LOBE_FEATURES_MEASURED) && L.tag == LOBE_MEASURED)
+          f = measured_f(L.aux, L.p0.xyz, wo, wi);
+        else
+#endif
+          f = vec3(INV_PI);
+        pdf = cosine_pdf(wi);
+        bs.f = f;
+      }
+      break;
+#if BSDF_ALL_MATERIALS
+    case LOBE_MICROFACET_R:
+    case LOBE_FRESNEL_BLEND:
+      if (has_feature(LOBE_FEATURES_MICROFACET_R | LOBE_FEATURES_FRESNEL_BLEND)) {
+        // pbrt-v3 MicrofacetReflection / FresnelBlend (f, Pdf, Sample_f: f re-evaluated at
+        // wi; MicrofacetReflection's sample pdf from the sampled normal, FresnelBlend's from
+        // Pdf; FresnelBlend's choice by u_lobe' < 0.5, docs/materials-spec.md 2.3).
+        bool blend = has_feature(LOBE_FEATURES_FRESNEL_BLEND) && L.tag == LOBE_FRESNEL_BLEND;
+        vec3 ws = vec3(0.0);
+        if (smp) {
+          if (blend && u.x < 0.5) {
+            wi = to_side_of(cosine_hemisphere(u.yz), wo);
+          } else {
+            ws = mf_sample_wm(lobe_dist(L), wo, u.yz);
+            wi = reflect_about(wo, ws);
+            if (!same_hemisphere(wo, wi)) break;
+          }
+        }
+        if (blend) fresnel_blend_eval(L, wo, wi, f, pdf);
+        else microfacet_r_eval(L, wo, wi, ws, f, pdf);
+        if (smp) bs = BsdfSample(f, pdf, wi, BSDF_REFLECTION | BSDF_GLOSSY, 1.0, false);
+      }
+      break;
+    case LOBE_MICROFACET_T:
+      if (has_feature(LOBE_FEATURES_MICROFACET_T)) {
+        if (smp && !microfacet_t_sample_wi(L, wo, u.yz, wi)) break;
+        float ft;
+        microfacet_t_eval(L, wo, wi, ft, pdf);
+        f = vec3(ft);
+        if (smp) {
+          // eta = etaT / etaI of pbrt-v3 MicrofacetTransmission (etaA = 1, etaB = eta)
+          float e = wo.z > 0.0 ? L.p0.z : 1.0 / L.p0.z;
+          bs = BsdfSample(f, pdf, wi, BSDF_TRANSMISSION | BSDF_GLOSSY, e, false);
+        }
+      }
+      break;
+    case LOBE_SPECULAR_R:
+      if (has_feature(LOBE_FEATURES_SPECULAR_R) && smp) bs = specular_r_sample(L, wo);
+      break;
+    case LOBE_SPECULAR_T:
+      if (has_feature(LOBE_FEATURES_SPECULAR_T) && smp) bs = specular_t_sample(L, wo);
+      break;
+    case LOBE_CONDUCTOR:
+      if (has_feature(LOBE_FEATURES_CONDUCTOR)) {
+        BsdfSample c = conductor_query(L.p1.xyz, L.p2.xyz, lobe_dist(L), wo, wi, u.yz, smp);
+        bs = c;
+        f = c.f;
+        pdf = c.pdf;
+      }
+      break;
+    case LOBE_DIELECTRIC:
+      if (has_feature(LOBE_FEATURES_DIELECTRIC)) {
+        // pbrt-v4 DielectricBxDF, reflection scaled by Kr and transmission by Kt (pbrt-v3 glass).
+        BsdfSample c = dielectric_query(L.p0.z, lobe_dist(L), wo, wi, u.x, u.yz, smp, true,
+                                        SAMPLE_ALL);
+        bool refl = smp ? (c.flags & BSDF_REFLECTION) != 0u : same;
+        f = c.f.x * (refl ? L.p1.xyz : L.p2.xyz);
+        pdf = c.pdf;
+        bs = c;
+        bs.f = f;
+      }
+      break;
+    case LOBE_THIN_DIELECTRIC:
+      if (has_feature(LOBE_FEATURES_THIN_DIELECTRIC) && smp)
+        bs = thin_dielectric_sample(L.p0.z, wo, u.x);
+      break;
+    case LOBE_DIFFUSE_TRANSMISSION:
+      if (has_feature(LOBE_FEATURES_DIFFUSE_TRANSMISSION)) {
+        if (smp) {
+          bs = dt_sample(L.p1.xyz, L.p2.xyz, wo, u.x, u.yz);
+        } else {
+          f = same ? L.p1.xyz * INV_PI : L.p2.xyz * INV_PI;
+          pdf = dt_pdf(L.p1.xyz, L.p2.xyz, wo, wi);
+        }
+      }
+      break;
+    case LOBE_LAYERED_DIFFUSE:
+    case LOBE_LAYERED_CONDUCTOR:
+      if (has_feature(LOBE_FEATURES_LAYERED)) {
+        if (smp) {
+          bs = layered_sample(L, wo, u.x, u.yz, stream);
+        } else {
+          if ((q & QUERY_F) != 0u) f = layered_f(L, wo, wi, stream);
+          if ((q & QUERY_PDF) != 0u) pdf = layered_pdf(L, wo, wi, stream);
+        }
+      }
+      break;
+#endif
+    default:
+      break;
+  }
+}
+
+// Result of a BSDF query: f and pdf (QUERY_F / QUERY_PDF) or the sample (QUERY_SAMPLE).
+struct BsdfQuery {
+  vec3 f;
+  float pdf;
+  BsdfSample bs;
+};
+
+// True if the lobe has a non-specular part (it contributes to f and pdf).
+bool lobe_nonspecular(Lobe L) { return (lobe_flags(L) & (BSDF_DIFFUSE | BSDF_GLOSSY)) != 0u; }
+
+// True if wi's side decided by the geometric normal (materials-spec 1.2) is reflection.
+bool geo_reflect(vec3 wo, vec3 wi, vec3 ng) { return dot_exact(wo, ng) * dot_exact(wi, ng) > 0.0; }
+
+// The BSDF operations of docs/materials-spec.md 1.2 and 1.3 behind one entry point, so that a
+// shader calling it from a single site (the integrator's bounce loop, the probe) inlines the
+// lobes once (lavapipe inlines every call before it folds the feature constants away):
+// - QUERY_F and/or QUERY_PDF: f = sum of weight x lobe f with wi.z negated where the geometric
+//   and shading hemisphere decisions disagree; pdf = (sum of the non-specular lobes' pdfs) / n,
+//   0 where they disagree.
+// - QUERY_SAMPLE with u = (u_lobe, u0, u1): lobe k = min(floor(u_lobe n), n - 1) samples with
+//   u_lobe' = min(u_lobe n - k, OneMinusEpsilon) (pbrt-v3 BSDF::Sample_f); a sample whose kind
+//   disagrees with the geometric normal is none; specular, stochastic (pdf_is_proportional) and
+//   single-lobe samples keep their f (weight applied) and pdf / n, others take f and pdf of
+//   all lobes at wi; empty samples (f = 0, pdf = 0, wi.z = 0) are none (pbrt-v4
+//   BSDF::Sample_f).
+BsdfQuery bsdf_query(Bsdf b, uint op, vec3 wo, vec3 wi, vec3 u, vec3 ng, uvec4 stream) {
+  BsdfQuery r = BsdfQuery(vec3(0.0), 0.0, no_sample());
+  if (wo.z == 0.0 || b.n == 0u) return r;
+  bool sampling = op == QUERY_SAMPLE;
+  float n = float(b.n);
+  uint ks = 0u;
+  vec3 ul = u;
+  uint q = op;
+  if (sampling) {
+    ks = min(uint(floor(u.x * n)), b.n - 1u);
+    precise float u_lobe = min(u.x * n - float(ks), ONE_MINUS_EPSILON);
+    ul.x = u_lobe;
+  } else if (geo_reflect(wo, wi, ng) != (wo.z * wi.z > 0.0)) {
+    wi.z = -wi.z;  // light-leak rule: evaluate on the side the geometry decides
+    q &= ~QUERY_PDF;
+    if (q == 0u) return r;
+  }
+  // Job t: the lobe sample first (t = 0 when sampling), then f / pdf of lobe k = t - first.
+  uint first = sampling ? 1u : 0u;
+  [[dont_unroll]] for (uint t = 0u; t < first + b.n; ++t) {
+    if (sampling && t == 1u) {
+      // After the lobe sample: keep it, or re-evaluate f and pdf of all lobes at its wi.
+      BsdfSample bs = r.bs;
+      if (bs.flags == 0u) break;
+      if (((bs.flags & BSDF_REFLECTION) != 0u) != geo_reflect(wo, bs.wi, ng)) {
+        r.bs = no_sample();
+        break;
+      }
+      if (bs.pdf_is_proportional || (bs.flags & BSDF_SPECULAR) != 0u || b.n == 1u) {
+        r.bs.f = bsdf_lobe(ks).weight * bs.f;
+        r.bs.pdf = bs.pdf / n;
+        break;
+      }
+      wi = bs.wi;
+      q = QUERY_F | QUERY_PDF;
+      if (geo_reflect(wo, wi, ng) != (wo.z * wi.z > 0.0)) {
+        wi.z = -wi.z;
+        q = QUERY_F;
+      }
+    }
+    uint k = (sampling && t == 0u) ? ks : t - first;
+    Lobe L = bsdf_lobe(k);
+    bool lobe_sampling = sampling && t == 0u;
+    if (!lobe_sampling && !lobe_nonspecular(L)) continue;
+    vec3 f;
+    float pdf;
+    BsdfSample bs;
+    lobe_query(L, lobe_sampling ? QUERY_SAMPLE : q, wo, wi, ul, stream, f, pdf, bs);
+    if (lobe_sampling) {
+      r.bs = bs;
+    } else {
+      if ((q & QUERY_F) != 0u) r.f += L.weight * f;
+      if ((q & QUERY_PDF) != 0u) r.pdf += pdf;
+    }
+  }
+  if (!sampling) {
+    r.pdf /= n;
+  } else if (r.bs.flags != 0u) {
+    if (b.n > 1u && !r.bs.pdf_is_proportional && (r.bs.flags & BSDF_SPECULAR) == 0u) {
+      r.bs.f = r.f;
+      r.bs.pdf = r.pdf / n;
+    }
+    if (!nonzero(r.bs.f) || r.bs.pdf == 0.0 || r.bs.wi.z == 0.0) r.bs = no_sample();
+  }
+  return r;
+}
+
+// f(wo, wi) of the BSDF (docs/materials-spec.md 1.2, 1.3); see bsdf_query.
+vec3 bsdf_eval(Bsdf b, vec3 wo, vec3 wi, vec3 ng, uvec4 stream) {
+  return bsdf_query(b, QUERY_F, wo, wi, vec3(0.0), ng, stream).f;
+}
+
+// Solid-angle pdf of bsdf_sample producing wi (docs/materials-spec.md 1.2, 1.3).
+float bsdf_pdf(Bsdf b, vec3 wo, vec3 wi, vec3 ng, uvec4 stream) {
+  return bsdf_query(b, QUERY_PDF, wo, wi, vec3(0.0), ng, stream).pdf;
+}
+
+// Samples wi with u = (u_lobe, u0, u1) (docs/materials-spec.md 1.3).
+BsdfSample bsdf_sample(Bsdf b, vec3 wo, vec3 u, vec3 ng, uvec4 stream) {
+  return bsdf_query(b, QUERY_SAMPLE, wo, vec3(0.0), u, ng, stream).bs;
 }
 
 #endif

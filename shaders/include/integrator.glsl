@@ -28,7 +28,10 @@ vec3 escaped_radiance(bool unweighted, float pdf_prev) {
   return L;
 }
 
-// Radiance estimate of sample s of pixel (px, py): one path (docs/path-spec.md section 7).
+// Radiance estimate of sample s of pixel (px, py): one path (docs/path-spec.md section 7 with
+// the changes of docs/materials-spec.md section 5: interface pass-through, per-bounce streams
+// for the stochastic lobes, NEE when a lobe is non-specular, proportional pdfs, etaScale in
+// Russian roulette, the light-leak rule through the local geometric normal).
 // rays is incremented by the number of rays traced (camera, continuation and shadow rays).
 vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
   CameraRay cr = camera_ray(px, py, s);
@@ -37,10 +40,12 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
   vec3 beta = vec3(1.0);
   bool specular = false;
   float pdf_prev = 0.0;
+  float eta_scale = 1.0;
   vec3 p_prev = ray.o;
   vec3 ng_prev = vec3(0.0);
   float m_prev = 0.0;
   uint depth = 0u;
+  uint crossings = 0u;
   uint max_depth = globals.image.z;
   uint num_lights = globals.counts.x;
   while (true) {
@@ -66,54 +71,90 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
         L += beta * w * Le;
       }
     }
+
+    // Interface (no surface): the path passes through with depth unchanged (pbrt-v4
+    // PathIntegrator's SkipIntersection; at most 64 crossings).
+    uint material = mix_resolve(sp.material, sp, wo);
+#if BSDF_ALL_MATERIALS
+    if (has_feature(FEATURE_MAT_INTERFACE) && material_valid(material) &&
+        materials[material].type == MATERIAL_INTERFACE) {
+      if (crossings == 64u) break;
+      ++crossings;
+      specular = true;
+      ray = spawn_ray(sp.p, sp.ng, sp.m, ray.d);
+      continue;
+    }
+#endif
     if (depth == max_depth) break;
     uint dim = DIM_BOUNCE_BASE + DIM_BOUNCE_STRIDE * depth;
     ++depth;
 
-    Bsdf bsdf = bsdf_at(sp.material, sp);
+    Bsdf bsdf = bsdf_build(material, sp);
     vec3 wo_l = to_local(sp, wo);
+    vec3 ng_l = to_local(sp, sp.ng);
 
-    // Next-event estimation: one light picked by light_cdf, MIS against BSDF sampling.
-    if ((FEATURES & FEATURE_ANY_LIGHT) != 0u && num_lights > 0u && !bsdf_is_specular(bsdf)) {
+    // Next-event estimation (one light picked by light_cdf, MIS against BSDF sampling) and BSDF
+    // sampling. The BSDF queries of the bounce run in one loop through one bsdf_query call
+    // site (see bsdf_query): step 0 NEE f (stream +7), 1 NEE pdf (+8), 2 sample (+9), 3 pdf
+    // at the sampled wi when the sample's pdf is only proportional (+10).
+    bool nee = (FEATURES & FEATURE_ANY_LIGHT) != 0u && num_lights > 0u &&
+               (bsdf_flags(bsdf) & (BSDF_DIFFUSE | BSDF_GLOSSY)) != 0u;
+    LightSample ls;
+    float pmf = 0.0;
+    vec3 wi_l = vec3(0.0), f_nee = vec3(0.0);
+    if (nee) {
       uint li = light_select(rng(px, py, s, dim + DIM_LIGHT_SELECT), num_lights);
-      float pmf = lights[li].pmf;
+      pmf = lights[li].pmf;
       vec2 ul = vec2(rng(px, py, s, dim + DIM_LIGHT_U0), rng(px, py, s, dim + DIM_LIGHT_U1));
-      LightSample ls = light_sample(li, sp.p, sp.ng, sp.m, ul);
-      if (ls.pdf > 0.0 && pmf > 0.0 && any_positive(ls.Li)) {
-        vec3 wi_l = to_local(sp, ls.wi);
-        vec3 f = bsdf_eval(bsdf, wo_l, wi_l) * abs(dot(ls.wi, sp.ns));
+      ls = light_sample(li, sp.p, sp.ng, sp.m, ul);
+      nee = ls.pdf > 0.0 && pmf > 0.0 && any_positive(ls.Li);
+      if (nee) wi_l = to_local(sp, ls.wi);
+    }
+    vec3 ub = vec3(rng(px, py, s, dim + DIM_BSDF_LOBE), rng(px, py, s, dim + DIM_BSDF_U0),
+                   rng(px, py, s, dim + DIM_BSDF_U1));
+    BsdfSample bs = no_sample();
+    [[dont_unroll]] for (uint step = nee ? 0u : 2u; step < 4u; ++step) {
+      uint op = step == 2u ? QUERY_SAMPLE : (step == 0u ? QUERY_F : QUERY_PDF);
+      vec3 wq = step == 3u ? bs.wi : wi_l;
+#if BSDF_ALL_MATERIALS
+      uvec4 stream = stream_key(px, py, s, dim + DIM_NEE_EVAL_STREAM + step);
+#else
+      uvec4 stream = uvec4(0u);  // the lean variant has no stochastic lobe
+#endif
+      BsdfQuery r = bsdf_query(bsdf, op, wo_l, wq, ub, ng_l, stream);
+      if (step == 0u) {
+        f_nee = r.f * abs(dot(ls.wi, sp.ns));
         bool lit = false;
-        if (any_positive(f)) {
+        if (any_positive(f_nee)) {
           lit = !intersect_any(shadow_ray(sp.p, sp.ng, sp.m, ls));
           ++rays;
         }
-        if (lit) {
-          if (ls.delta) {
-            L += beta * f * ls.Li / pmf;
-          } else {
-            float pl = pmf * ls.pdf;
-            L += beta * f * ls.Li * power_heuristic(pl, bsdf_pdf(bsdf, wo_l, wi_l)) / pl;
-          }
-        }
+        if (lit && ls.delta) L += beta * f_nee * ls.Li / pmf;
+        if (!lit || ls.delta) step = 1u;  // no MIS weight needed
+      } else if (step == 1u) {
+        float pl = pmf * ls.pdf;
+        L += beta * f_nee * ls.Li * power_heuristic(pl, r.pdf) / pl;
+      } else if (step == 2u) {
+        bs = r.bs;
+        if (bs.flags == 0u) break;
+        pdf_prev = bs.pdf;
+        if (!bs.pdf_is_proportional) break;
+      } else {
+        pdf_prev = r.pdf;
       }
     }
-
-    // BSDF sampling of the continuation direction.
-    vec3 ub = vec3(rng(px, py, s, dim + DIM_BSDF_LOBE), rng(px, py, s, dim + DIM_BSDF_U0),
-                   rng(px, py, s, dim + DIM_BSDF_U1));
-    BsdfSample bs = bsdf_sample(bsdf, wo_l, ub);
-    if (bs.pdf == 0.0 || !any_positive(bs.f) || bs.wi.z == 0.0) break;
+    if (bs.flags == 0u || bs.pdf == 0.0 || !any_positive(bs.f) || bs.wi.z == 0.0) break;
     vec3 wi = to_world(sp, bs.wi);
     beta *= bs.f * abs(dot(wi, sp.ns)) / bs.pdf;
-    pdf_prev = bs.pdf;
     specular = (bs.flags & BSDF_SPECULAR) != 0u;
+    if ((bs.flags & BSDF_TRANSMISSION) != 0u) eta_scale *= bs.eta * bs.eta;
     p_prev = sp.p;
     ng_prev = sp.ng;
     m_prev = sp.m;
     ray = spawn_ray(sp.p, sp.ng, sp.m, wi);
 
-    // Russian roulette (pbrt-v4 13.4.2).
-    float bmax = max_component(beta);
+    // Russian roulette on beta x etaScale (pbrt-v4 13.4.2).
+    float bmax = max_component(beta * eta_scale);
     if (bmax < 1.0 && depth > 1u) {
       float q = max(0.0, 1.0 - bmax);
       if (rng(px, py, s, dim + DIM_ROULETTE) < q) break;

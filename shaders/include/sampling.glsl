@@ -3,9 +3,17 @@
 #define BASALT_SAMPLING_GLSL
 
 #include "math.glsl"
+#include "trig.glsl"
 
 // Shirley & Chiu 1997 concentric square-to-disk map, pbrt-v4 A.5.1
 // SampleUniformDiskConcentric (docs/path-spec.md section 2 step 4).
+// Signed radius of concentric_disk(u), without trigonometry, so that 1 - r^2 is the same on
+// both renderers (docs/path-spec.md section 8).
+float concentric_radius(vec2 u) {
+  precise vec2 o = 2.0 * u - 1.0;
+  return abs(o.x) > abs(o.y) ? o.x : o.y;
+}
+
 vec2 concentric_disk(vec2 u) {
   vec2 o = 2.0 * u - 1.0;
   if (o.x == 0.0 && o.y == 0.0) return vec2(0.0);
@@ -17,7 +25,7 @@ vec2 concentric_disk(vec2 u) {
     r = o.y;
     th = PI_OVER_2 - PI_OVER_4 * (o.x / o.y);
   }
-  return r * vec2(cos(th), sin(th));
+  return r * vec2(cos_accurate(th), sin_accurate(th));
 }
 
 // Uniform direction on the unit sphere, pbrt-v4 A.5.2 SampleUniformSphere
@@ -26,7 +34,7 @@ vec3 uniform_sphere(vec2 u) {
   float z = 1.0 - 2.0 * u.x;
   float r = sqrt(max(0.0, 1.0 - z * z));
   float phi = 2.0 * PI * u.y;
-  return vec3(r * cos(phi), r * sin(phi), z);
+  return vec3(r * cos_accurate(phi), r * sin_accurate(phi), z);
 }
 
 // Barycentrics (b0, b1, b2) uniform over a triangle, pbrt-v4 A.5.5 SampleUniformTriangle

@@ -8,8 +8,10 @@
 #include "intersect.glsl"
 
 // A point on a surface: position, geometric normal (after the flips of section 4), shading
-// normal with its Duff tangents, material index, area light index (INVALID_INDEX if none) and
-// the magnitude bound m of its primitive that scales the spawn offset (section 5).
+// normal with its tangents (t1, t2) = (s, t) of the shading frame (docs/materials-spec.md
+// section 1.1: from dpdu, or the Duff frame of ns without a usable dpdu), material index, area
+// light index (INVALID_INDEX if none) and the magnitude bound m of its primitive that scales
+// the spawn offset (section 5).
 struct SurfacePoint {
   vec3 p;
   uint material;
@@ -20,6 +22,63 @@ struct SurfacePoint {
   vec3 t1;
   vec3 t2;
 };
+
+// cross(a, b) spelled out and precise (no fma contraction), as the CPU computes it.
+vec3 cross_exact(vec3 a, vec3 b) {
+  precise vec3 c = vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+  return c;
+}
+
+// dpdu of triangle tri (docs/materials-spec.md section 1.1, pbrt-v4
+// Triangle::InteractionFromIntersection): from the per-vertex uv of the mesh, or (0,0), (1,0),
+// (1,1) without them; zero when |det| < 1e-9.
+vec3 triangle_dpdu(uint tri) {
+  Triangle T = triangles[tri];
+  Vertex a = vertices[T.v0], b = vertices[T.v1], c = vertices[T.v2];
+  vec2 uv0 = vec2(0.0, 0.0), uv1 = vec2(1.0, 0.0), uv2 = vec2(1.0, 1.0);
+  if ((meshes[T.mesh].flags & SHAPE_FLAG_HAS_UV) != 0u) {
+    uv0 = vec2(a.p_u.w, a.n_v.w);
+    uv1 = vec2(b.p_u.w, b.n_v.w);
+    uv2 = vec2(c.p_u.w, c.n_v.w);
+  }
+  precise vec2 duv02 = uv0 - uv2;
+  precise vec2 duv12 = uv1 - uv2;
+  precise vec3 dp02 = a.p_u.xyz - c.p_u.xyz;
+  precise vec3 dp12 = b.p_u.xyz - c.p_u.xyz;
+  precise float det = duv02.x * duv12.y - duv02.y * duv12.x;
+  if (abs(det) < 1e-9) return vec3(0.0);
+  precise vec3 dpdu = (duv12.y * dp02 - duv02.y * dp12) / det;
+  return dpdu;
+}
+
+// dpdu of sphere sph at p (docs/materials-spec.md section 1.1): in the object frame with
+// q = p - c in object coordinates, (-2 pi q.y, 2 pi q.x, 0) (pbrt-v4 Sphere, phiMax = 2 pi),
+// back in world space; zero at the poles.
+vec3 sphere_dpdu(uint sph, vec3 p) {
+  Sphere S = spheres[sph];
+  precise vec3 pc = p - S.center_radius.xyz;
+  float qx = dot_exact(pc, S.axis_x.xyz);
+  float qy = dot_exact(pc, S.axis_y.xyz);
+  precise float dx = (-2.0 * PI) * qy;
+  precise float dy = (2.0 * PI) * qx;
+  precise vec3 dpdu = dx * S.axis_x.xyz + dy * S.axis_y.xyz;
+  return dpdu;
+}
+
+// Shading frame (t1, t2, ns) from the shading normal and dpdu (docs/materials-spec.md section
+// 1.1): s = dpdu - ns dot(ns, dpdu) normalized and t = cross(ns, s) when dot(s, s) > 1e-20 and
+// finite, else the Duff frame of ns (docs/path-spec.md section 4).
+void shading_frame(vec3 ns, vec3 dpdu, out vec3 t1, out vec3 t2) {
+  float d = dot_exact(ns, dpdu);
+  precise vec3 s = dpdu - ns * d;
+  float ss = dot_exact(s, s);
+  if (ss > 1e-20 && ss <= FLT_MAX) {
+    t1 = s / sqrt(ss);
+    t2 = cross_exact(ns, t1);
+  } else {
+    duff_frame(ns, t1, t2);
+  }
+}
 
 // Magnitude bound of a sphere (center, radius) for offset_ray (docs/path-spec.md section 5):
 // max(|c.x|, |c.y|, |c.z|) + r.
@@ -77,6 +136,7 @@ SurfacePoint surface_point(Ray ray, Hit hit) {
   sp.ng = vec3(0.0, 0.0, 1.0);
   sp.ns = sp.ng;
   sp.m = 0.0;
+  vec3 dpdu = vec3(0.0);
   if ((hit.prim & PRIM_SPHERE_BIT) != 0u) {
     if ((FEATURES & FEATURE_SPHERES) != 0u) {
       uint sph = hit.prim & PRIM_INDEX_MASK;
@@ -91,6 +151,7 @@ SurfacePoint surface_point(Ray ray, Hit hit) {
       sp.m = sphere_bound(cr);
       sp.material = spheres[sph].material;
       sp.light = spheres[sph].light;
+      dpdu = sphere_dpdu(sph, sp.p);
     }
   } else if ((FEATURES & FEATURE_TRIANGLES) != 0u) {
     uint tri = hit.prim;
@@ -98,16 +159,22 @@ SurfacePoint surface_point(Ray ray, Hit hit) {
     Mesh m = meshes[triangles[tri].mesh];
     sp.material = m.material;
     sp.light = m.light_base == INVALID_INDEX ? INVALID_INDEX : m.light_base + (tri - m.tri_base);
+    dpdu = triangle_dpdu(tri);
   }
-  duff_frame(sp.ns, sp.t1, sp.t2);
+  shading_frame(sp.ns, dpdu, sp.t1, sp.t2);
   return sp;
 }
 
-// World direction to the local shading frame (t1, t2, ns).
-vec3 to_local(SurfacePoint sp, vec3 w) { return vec3(dot(w, sp.t1), dot(w, sp.t2), dot(w, sp.ns)); }
+// World direction to the local shading frame (t1, t2, ns), with uncontracted dot products.
+vec3 to_local(SurfacePoint sp, vec3 w) {
+  return vec3(dot_exact(w, sp.t1), dot_exact(w, sp.t2), dot_exact(w, sp.ns));
+}
 
-// Local shading-frame direction to world space.
-vec3 to_world(SurfacePoint sp, vec3 l) { return l.x * sp.t1 + l.y * sp.t2 + l.z * sp.ns; }
+// Local shading-frame direction to world space (l.x t1 + l.y t2 + l.z ns, left to right).
+vec3 to_world(SurfacePoint sp, vec3 l) {
+  precise vec3 w = l.x * sp.t1 + l.y * sp.t2 + l.z * sp.ns;
+  return w;
+}
 
 // Ray origin off a surface (docs/path-spec.md section 5): p moved along n (the geometric
 // normal on the side the ray leaves) by m * 2^-17, where m is the magnitude bound of the

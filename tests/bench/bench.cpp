@@ -1,6 +1,7 @@
 // basalt benchmark: samples/s and Mrays/s of every scene in scenes/ on a Vulkan device
 // (lavapipe unless BASALT_BENCH_DEVICE names another) and on the CPU reference, and the
-// cost of the specialised pipeline against one with every feature compiled in.
+// cost of the specialised pipeline against one with every feature compiled in, and for
+// diffuse-only scenes of the lean render shader against the full one.
 // Run: `cmake --build build --target bench` (5 repetitions, medians reported).
 #include <benchmark/benchmark.h>
 
@@ -75,16 +76,28 @@ void BM_Cpu(benchmark::State& state, std::string path) {
   set_counters(state, samples * state.iterations(), rays);
 }
 
-/// Pipeline creation (with the driver's compile at first dispatch) and render speed for
-/// the scene's specialised pipeline (arg 0) or one with every feature (arg 1).
+/// Pipeline configurations compared by BM_Specialisation (its argument).
+enum Config : int {
+  kSpecialised = 0,      // scene's features, shader chosen as basalt does (lean if it can)
+  kAllFeatures = 1,      // every feature, full shader
+  kSpecialisedFull = 2,  // scene's features, full shader (registered for lean scenes only)
+};
+
+/// Pipeline creation (with the driver's compile at first dispatch) and render speed for one
+/// Config; the label names the configuration and the render shader build (lean or full).
 void BM_Specialisation(benchmark::State& state, std::string path) {
   const auto& t = tables(path);
-  const std::uint32_t features = state.range(0) ? 0xffffffffu : t.features;
+  const auto config = Config(state.range(0));
+  const std::uint32_t features = config == kAllFeatures ? 0xffffffffu : t.features;
+  const auto variant = config == kSpecialisedFull ? basalt::vkx::ShaderVariant::full
+                                                  : basalt::vkx::ShaderVariant::automatic;
   const double samples = double(t.width()) * t.height() * kSpp;
   double pipeline = 0, rays = 0;
   for (auto _ : state) {
     state.PauseTiming();
-    basalt::vkx::GpuRenderer gpu(context(), t, features);
+    basalt::vkx::GpuRenderer gpu(context(), t, features, variant);
+    state.SetLabel(std::string(config == kAllFeatures ? "all features, " : "specialised, ") +
+                   gpu.variant + " shader");
     pipeline += gpu.seconds_pipeline;
     state.ResumeTiming();
     gpu.render(0, kSpp);
@@ -106,9 +119,12 @@ void register_all() {
         ->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
     benchmark::RegisterBenchmark(("cpu/" + name).c_str(), BM_Cpu, f)
         ->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
-    benchmark::RegisterBenchmark(("specialisation/" + name).c_str(), BM_Specialisation, f)
-        ->ArgName("all_features")->Arg(0)->Arg(1)
-        ->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
+    auto* spec = benchmark::RegisterBenchmark(("specialisation/" + name).c_str(),
+                                              BM_Specialisation, f);
+    spec->ArgName("config")->Arg(kSpecialised)->Arg(kAllFeatures);
+    // Diffuse-only scenes get the lean shader: measure the full one too (the saving).
+    if (basalt::vkx::GpuRenderer::lean_suffices(tables(f).features)) spec->Arg(kSpecialisedFull);
+    spec->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
   }
 }
 

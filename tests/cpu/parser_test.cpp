@@ -7,7 +7,11 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <string>
 
+#include "scene/materials.h"
+#include "scene/merl.h"
 #include "scene/scene.h"
+#include "scene/spectra.h"
+#include "scene/tables.h"
 #include "scene/tokenizer.h"
 
 namespace fs = std::filesystem;
@@ -564,15 +568,21 @@ TEST(ParserErrors, RecursiveInclude) {
 }
 
 TEST(Parser, SceneFilesInTheRepositoryParse) {
-  for (const char* name : {"cornell-box.pbrt", "spheres-lights.pbrt", "igea-infinite.pbrt"}) {
-    fs::path p = fs::path(BASALT_SOURCE_DIR) / "scenes" / name;
-    if (!fs::exists(p)) continue;
-    if (std::string(name) == "igea-infinite.pbrt" && !fs::exists("/work/shared/models/igea.ply"))
-      continue;
-    Scene s = load_scene(p.string());
+  // Every scene of scenes/ parses without warnings and flattens into tables.
+  int count = 0;
+  for (const auto& e : fs::directory_iterator(fs::path(BASALT_SOURCE_DIR) / "scenes")) {
+    if (e.path().extension() != ".pbrt") continue;
+    std::string name = e.path().filename().string();
+    if (name == "igea-infinite.pbrt" && !fs::exists("/work/shared/models/igea.ply")) continue;
+    Scene s = load_scene(e.path().string());
     EXPECT_FALSE(s.shapes.empty()) << name;
     EXPECT_TRUE(s.warnings.empty()) << name << ": " << (s.warnings.empty() ? "" : s.warnings[0]);
+    std::vector<std::string> warnings;
+    basalt::SceneTables t = basalt::build_tables(s, nullptr, &warnings);
+    EXPECT_TRUE(warnings.empty()) << name << ": " << (warnings.empty() ? "" : warnings[0]);
+    ++count;
   }
+  EXPECT_GE(count, 10);
 }
 
 // ---- errors: each with its exact location ----------------------------------------------------
@@ -691,10 +701,12 @@ TEST(ParserErrors, EmptyScene) {
 }
 
 TEST(ParserErrors, UnsupportedMaterial) {
-  EXPECT_EQ(error_of("WorldBegin\n  Material \"coateddiffuse\"\nShape \"sphere\"\n"),
-            "t.pbrt:2:3: error: material 'coateddiffuse' is not supported yet");
-  EXPECT_EQ(error_of("WorldBegin\nMakeNamedMaterial \"m\" \"string type\" \"conductor\"\n"),
-            "t.pbrt:2:23: error: material 'conductor' is not supported yet");
+  EXPECT_EQ(error_of("WorldBegin\n  Material \"hair\"\nShape \"sphere\"\n"),
+            "t.pbrt:2:3: error: material 'hair' is not supported by basalt");
+  EXPECT_EQ(error_of("WorldBegin\nMakeNamedMaterial \"m\" \"string type\" \"subsurface\"\n"),
+            "t.pbrt:2:23: error: material 'subsurface' is not supported by basalt");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"velvet\"\n"),
+            "t.pbrt:2:1: error: unknown material type 'velvet'");
   EXPECT_EQ(error_of("WorldBegin\nMakeNamedMaterial \"m\" \"rgb reflectance\" [1 1 1]\n"),
             "t.pbrt:2:1: error: MakeNamedMaterial \"m\" needs a \"string type\" parameter");
   EXPECT_EQ(error_of("WorldBegin\nMakeNamedMaterial \"m\" \"string type\" \"diffuse\"\n"
@@ -750,16 +762,12 @@ TEST(ParserErrors, UnsupportedTypesAreNamed) {
             "to texture \"t\")");
   EXPECT_EQ(error_of("WorldBegin\nLightSource \"infinite\" \"string filename\" \"sky.exr\"\n"),
             "t.pbrt:2:24: error: image infinite lights not supported yet");
-  EXPECT_EQ(error_of("WorldBegin\nLightSource \"point\" \"blackbody I\" 3000\n"),
-            "t.pbrt:2:21: error: spectrum parameters are not supported yet: blackbody parameter "
-            "\"I\"; give an rgb value");
   EXPECT_EQ(error_of("WorldBegin\nLightSource \"point\" \"spectrum I\" \"stdillum-D65\"\n"),
-            "t.pbrt:2:21: error: spectrum parameters are not supported yet: named spectrum "
-            "\"stdillum-D65\" for parameter \"I\"; give an rgb value");
-  EXPECT_EQ(
-      error_of("WorldBegin\nMaterial \"diffuse\" \"spectrum reflectance\" [400 0.1 700 0.9]\n"),
-      "t.pbrt:2:20: error: spectrum parameters are not supported yet: parameter "
-      "\"reflectance\" is not constant; give an rgb value");
+            "t.pbrt:2:21: error: unknown named spectrum \"stdillum-D65\" for parameter \"I\" "
+            "(basalt knows metal-Ag-eta, metal-Ag-k, metal-Al-eta, metal-Al-k, metal-Au-eta, "
+            "metal-Au-k, metal-Cu-eta, metal-Cu-k, metal-CuZn-eta, metal-CuZn-k, metal-MgO-eta, "
+            "metal-MgO-k, metal-TiO2-eta, metal-TiO2-k, glass-BK7, glass-BAF10, glass-FK51A, "
+            "glass-LASF9, glass-F5, glass-F10, glass-F11)");
   EXPECT_EQ(
       error_of("WorldBegin\nLightSource \"point\" \"float power\" 10\n"),
       "t.pbrt:2:21: error: parameter \"power\" (photometric light scaling) is not supported yet");
@@ -801,4 +809,595 @@ TEST(ParserErrors, DegenerateTransforms) {
             "t.pbrt:2:1: error: the camera transform (CTM at Camera) is not invertible");
   EXPECT_EQ(error_of("WorldBegin\nRotate 10 0 0 0\n"),
             "t.pbrt:2:1: error: Rotate axis is the zero vector");
+}
+
+// ---- materials (docs/materials.md): names, defaults, slots, flags, mixes, spectra, MERL -------
+
+namespace {
+
+using namespace basalt::gpu;
+using basalt::MixMode;
+
+// The GPU material that shape 0 of the parsed scene uses (scene text after WorldBegin).
+basalt::gpu::Material material_of(const std::string& world, MixMode mode = MixMode::Auto,
+                                  const std::string& base_dir = ".") {
+  Scene s = load_scene_from_string("WorldBegin\n" + world + "\nShape \"sphere\"\n", "t.pbrt",
+                                   base_dir, mode);
+  basalt::SceneTables t = basalt::build_tables(s);
+  return t.materials.at(std::size_t(s.shapes.at(0).material));
+}
+
+// Slot i's rgb.
+glm::vec3 slot(const basalt::gpu::Material& m, std::uint32_t i) { return glm::vec3(m.value[i]); }
+
+// The reflectance-rule rgb of a named spectrum.
+glm::vec3 named(const char* name) {
+  return glm::vec3(basalt::spectrum_to_rgb_reflectance(*basalt::named_spectrum(name)));
+}
+
+}  // namespace
+
+TEST(Materials, EveryPbrtV4NameWithDefaults) {
+  const glm::vec3 cu_eta = named("metal-Cu-eta"), cu_k = named("metal-Cu-k");
+  auto m = material_of("Material \"diffuse\"");
+  EXPECT_EQ(m.type, MATERIAL_DIFFUSE);
+  EXPECT_EQ(slot(m, SLOT_DIFFUSE_REFLECTANCE), glm::vec3(0.5f));
+
+  m = material_of("Material \"coateddiffuse\"");
+  EXPECT_EQ(m.type, MATERIAL_COATED_DIFFUSE);
+  EXPECT_EQ(m.flags, MATFLAG_REMAP_SQRT);
+  EXPECT_EQ(slot(m, SLOT_CD_REFLECTANCE), glm::vec3(0.5f));
+  EXPECT_EQ(m.value[SLOT_CD_UROUGH].x, 0.0f);
+  EXPECT_EQ(m.value[SLOT_CD_VROUGH].x, 0.0f);
+  EXPECT_EQ(m.value[SLOT_CD_THICKNESS].x, 0.01f);
+  EXPECT_EQ(m.value[SLOT_CD_ETA].x, 1.5f);
+  EXPECT_EQ(slot(m, SLOT_CD_ALBEDO), glm::vec3(0.0f));
+  EXPECT_EQ(m.value[SLOT_CD_G].x, 0.0f);
+  EXPECT_EQ(m.aux0, 10u);  // maxdepth
+  EXPECT_EQ(m.aux1, 1u);   // nsamples
+
+  m = material_of("Material \"coatedconductor\"");
+  EXPECT_EQ(m.type, MATERIAL_COATED_CONDUCTOR);
+  EXPECT_EQ(m.flags, MATFLAG_REMAP_SQRT);
+  EXPECT_EQ(m.value[SLOT_CC_IF_UROUGH].x, 0.0f);
+  EXPECT_EQ(m.value[SLOT_CC_THICKNESS].x, 0.01f);
+  EXPECT_EQ(m.value[SLOT_CC_IF_ETA].x, 1.5f);
+  EXPECT_EQ(m.value[SLOT_CC_G].x, 0.0f);
+  EXPECT_EQ(slot(m, SLOT_CC_ALBEDO), glm::vec3(0.0f));
+  EXPECT_EQ(m.value[SLOT_CC_UROUGH].x, 0.0f);
+  EXPECT_EQ(slot(m, SLOT_CC_ETA), cu_eta);
+  EXPECT_EQ(slot(m, SLOT_CC_K), cu_k);
+  EXPECT_EQ(m.aux0, 10u);
+  EXPECT_EQ(m.aux1, 1u);
+
+  m = material_of("Material \"conductor\"");
+  EXPECT_EQ(m.type, MATERIAL_CONDUCTOR);
+  EXPECT_EQ(m.flags, MATFLAG_REMAP_SQRT);
+  EXPECT_EQ(slot(m, SLOT_CONDUCTOR_ETA), cu_eta);
+  EXPECT_EQ(slot(m, SLOT_CONDUCTOR_K), cu_k);
+  EXPECT_EQ(m.value[SLOT_CONDUCTOR_UROUGH].x, 0.0f);
+  EXPECT_EQ(m.value[SLOT_CONDUCTOR_VROUGH].x, 0.0f);
+
+  m = material_of("Material \"dielectric\"");
+  EXPECT_EQ(m.type, MATERIAL_DIELECTRIC);
+  EXPECT_EQ(m.flags, MATFLAG_REMAP_SQRT);
+  EXPECT_EQ(m.value[SLOT_DIELECTRIC_ETA].x, 1.5f);
+  EXPECT_EQ(m.value[SLOT_DIELECTRIC_UROUGH].x, 0.0f);
+  EXPECT_EQ(slot(m, SLOT_DIELECTRIC_KR), glm::vec3(1.0f));
+  EXPECT_EQ(slot(m, SLOT_DIELECTRIC_KT), glm::vec3(1.0f));
+
+  m = material_of("Material \"thindielectric\"");
+  EXPECT_EQ(m.type, MATERIAL_THIN_DIELECTRIC);
+  EXPECT_EQ(m.value[SLOT_THIN_ETA].x, 1.5f);
+
+  m = material_of("Material \"diffusetransmission\"");
+  EXPECT_EQ(m.type, MATERIAL_DIFFUSE_TRANSMISSION);
+  EXPECT_EQ(slot(m, SLOT_DT_REFLECTANCE), glm::vec3(0.25f));
+  EXPECT_EQ(slot(m, SLOT_DT_TRANSMITTANCE), glm::vec3(0.25f));
+  EXPECT_EQ(m.value[SLOT_DT_SCALE].x, 1.0f);
+
+  m = material_of("Material \"interface\"");
+  EXPECT_EQ(m.type, MATERIAL_INTERFACE);
+  for (const auto& t : m.texture) EXPECT_EQ(t, glm::uvec4(INVALID_INDEX));
+}
+
+TEST(Materials, EveryPbrtV3NameWithDefaults) {
+  const glm::vec3 cu_eta = named("metal-Cu-eta"), cu_k = named("metal-Cu-k");
+  auto m = material_of("Material \"matte\"");
+  EXPECT_EQ(m.type, MATERIAL_OREN_NAYAR);
+  EXPECT_EQ(slot(m, SLOT_ON_REFLECTANCE), glm::vec3(0.5f));
+  EXPECT_EQ(m.value[SLOT_ON_SIGMA].x, 0.0f);
+
+  m = material_of("Material \"plastic\"");
+  EXPECT_EQ(m.type, MATERIAL_PLASTIC);
+  EXPECT_EQ(m.flags, MATFLAG_REMAP_V3);
+  EXPECT_EQ(slot(m, SLOT_PLASTIC_KD), glm::vec3(0.25f));
+  EXPECT_EQ(slot(m, SLOT_PLASTIC_KS), glm::vec3(0.25f));
+  EXPECT_EQ(m.value[SLOT_PLASTIC_ROUGH].x, 0.1f);
+
+  m = material_of("Material \"metal\"");
+  EXPECT_EQ(m.type, MATERIAL_METAL);
+  EXPECT_EQ(m.flags, MATFLAG_REMAP_V3);
+  EXPECT_EQ(slot(m, SLOT_CONDUCTOR_ETA), cu_eta);  // pbrt-v3's copper = pbrt-v4 metal-Cu
+  EXPECT_EQ(slot(m, SLOT_CONDUCTOR_K), cu_k);
+  EXPECT_EQ(m.value[SLOT_CONDUCTOR_UROUGH].x, 0.01f);
+  EXPECT_EQ(m.value[SLOT_CONDUCTOR_VROUGH].x, 0.01f);
+
+  m = material_of("Material \"mirror\"");
+  EXPECT_EQ(m.type, MATERIAL_MIRROR);
+  EXPECT_EQ(slot(m, SLOT_MIRROR_KR), glm::vec3(0.9f));
+
+  m = material_of("Material \"glass\"");
+  EXPECT_EQ(m.type, MATERIAL_DIELECTRIC);
+  EXPECT_EQ(m.flags, MATFLAG_REMAP_NONE);  // roughness 0 is specular in pbrt-v3 glass
+  EXPECT_EQ(m.value[SLOT_DIELECTRIC_ETA].x, 1.5f);
+  EXPECT_EQ(slot(m, SLOT_DIELECTRIC_KR), glm::vec3(1.0f));
+  EXPECT_EQ(slot(m, SLOT_DIELECTRIC_KT), glm::vec3(1.0f));
+
+  m = material_of("Material \"substrate\"");
+  EXPECT_EQ(m.type, MATERIAL_SUBSTRATE);
+  EXPECT_EQ(m.flags, MATFLAG_REMAP_V3);
+  EXPECT_EQ(slot(m, SLOT_SUBSTRATE_KD), glm::vec3(0.5f));
+  EXPECT_EQ(slot(m, SLOT_SUBSTRATE_KS), glm::vec3(0.5f));
+  EXPECT_EQ(m.value[SLOT_SUBSTRATE_UROUGH].x, 0.1f);
+  EXPECT_EQ(m.value[SLOT_SUBSTRATE_VROUGH].x, 0.1f);
+
+  m = material_of("Material \"translucent\"");
+  EXPECT_EQ(m.type, MATERIAL_TRANSLUCENT);
+  EXPECT_EQ(slot(m, SLOT_TRANSLUCENT_KD), glm::vec3(0.25f));
+  EXPECT_EQ(slot(m, SLOT_TRANSLUCENT_KS), glm::vec3(0.25f));
+  EXPECT_EQ(slot(m, SLOT_TRANSLUCENT_REFLECT), glm::vec3(0.5f));
+  EXPECT_EQ(slot(m, SLOT_TRANSLUCENT_TRANSMIT), glm::vec3(0.5f));
+  EXPECT_EQ(m.value[SLOT_TRANSLUCENT_ROUGH].x, 0.1f);
+
+  m = material_of("Material \"uber\"");
+  EXPECT_EQ(m.type, MATERIAL_UBER);
+  EXPECT_EQ(slot(m, SLOT_UBER_KD), glm::vec3(0.25f));
+  EXPECT_EQ(slot(m, SLOT_UBER_KS), glm::vec3(0.25f));
+  EXPECT_EQ(slot(m, SLOT_UBER_KR), glm::vec3(0.0f));
+  EXPECT_EQ(slot(m, SLOT_UBER_KT), glm::vec3(0.0f));
+  EXPECT_EQ(m.value[SLOT_UBER_UROUGH].x, 0.1f);
+  EXPECT_EQ(m.value[SLOT_UBER_VROUGH].x, 0.1f);
+  EXPECT_EQ(m.value[SLOT_UBER_ETA].x, 1.5f);
+  EXPECT_EQ(slot(m, SLOT_UBER_OPACITY), glm::vec3(1.0f));
+}
+
+TEST(Materials, ParametersReachTheirSlots) {
+  auto m = material_of(
+      "Material \"coatedconductor\" \"float interface.uroughness\" 0.1 "
+      "\"float interface.vroughness\" 0.2 \"float thickness\" 0.3 \"float interface.eta\" 1.7 "
+      "\"float g\" -0.4 \"rgb albedo\" [0.1 0.2 0.3] \"float conductor.roughness\" 0.5 "
+      "\"rgb conductor.eta\" [1 2 3] \"rgb conductor.k\" [4 5 6] \"integer maxdepth\" 3 "
+      "\"integer nsamples\" 2 \"bool remaproughness\" false");
+  EXPECT_EQ(m.flags, MATFLAG_REMAP_NONE);
+  EXPECT_EQ(m.value[SLOT_CC_IF_UROUGH].x, 0.1f);
+  EXPECT_EQ(m.value[SLOT_CC_IF_VROUGH].x, 0.2f);
+  EXPECT_EQ(m.value[SLOT_CC_THICKNESS].x, 0.3f);
+  EXPECT_EQ(m.value[SLOT_CC_IF_ETA].x, 1.7f);
+  EXPECT_EQ(m.value[SLOT_CC_G].x, -0.4f);
+  EXPECT_EQ(slot(m, SLOT_CC_ALBEDO), glm::vec3(0.1f, 0.2f, 0.3f));
+  EXPECT_EQ(m.value[SLOT_CC_UROUGH].x, 0.5f);  // conductor.roughness sets both
+  EXPECT_EQ(m.value[SLOT_CC_VROUGH].x, 0.5f);
+  EXPECT_EQ(slot(m, SLOT_CC_ETA), glm::vec3(1, 2, 3));
+  EXPECT_EQ(slot(m, SLOT_CC_K), glm::vec3(4, 5, 6));
+  EXPECT_EQ(m.aux0, 3u);
+  EXPECT_EQ(m.aux1, 2u);
+
+  m = material_of("Material \"conductor\" \"rgb reflectance\" [0.9 0.5 0.2] "
+                  "\"float uroughness\" 0.1 \"float roughness\" 0.3");
+  EXPECT_EQ(m.flags, MATFLAG_REMAP_SQRT | MATFLAG_USE_REFLECTANCE);
+  EXPECT_EQ(slot(m, SLOT_CONDUCTOR_REFLECTANCE), glm::vec3(0.9f, 0.5f, 0.2f));
+  EXPECT_EQ(m.value[SLOT_CONDUCTOR_UROUGH].x, 0.1f);  // uroughness wins over roughness
+  EXPECT_EQ(m.value[SLOT_CONDUCTOR_VROUGH].x, 0.3f);
+
+  m = material_of("Material \"uber\" \"rgb Kd\" [0.1 0.2 0.3] \"rgb Ks\" [0.4 0.5 0.6] "
+                  "\"rgb Kr\" [0.7 0.8 0.9] \"rgb Kt\" [0.2 0.2 0.2] \"float roughness\" 0.3 "
+                  "\"float vroughness\" 0.4 \"float index\" 1.33 \"rgb opacity\" [0.5 0.6 0.7]");
+  EXPECT_EQ(slot(m, SLOT_UBER_KD), glm::vec3(0.1f, 0.2f, 0.3f));
+  EXPECT_EQ(slot(m, SLOT_UBER_KS), glm::vec3(0.4f, 0.5f, 0.6f));
+  EXPECT_EQ(slot(m, SLOT_UBER_KR), glm::vec3(0.7f, 0.8f, 0.9f));
+  EXPECT_EQ(slot(m, SLOT_UBER_KT), glm::vec3(0.2f));
+  EXPECT_EQ(m.value[SLOT_UBER_UROUGH].x, 0.3f);
+  EXPECT_EQ(m.value[SLOT_UBER_VROUGH].x, 0.4f);
+  EXPECT_EQ(m.value[SLOT_UBER_ETA].x, 1.33f);
+  EXPECT_EQ(slot(m, SLOT_UBER_OPACITY), glm::vec3(0.5f, 0.6f, 0.7f));
+
+  m = material_of("Material \"glass\" \"float eta\" 1.7 \"float index\" 1.2 "
+                  "\"float uroughness\" 0.2 \"rgb Kt\" [0.5 0.6 0.7]");
+  EXPECT_EQ(m.value[SLOT_DIELECTRIC_ETA].x, 1.7f);  // eta wins over index
+  EXPECT_EQ(m.flags, MATFLAG_REMAP_V3);
+  EXPECT_EQ(slot(m, SLOT_DIELECTRIC_KT), glm::vec3(0.5f, 0.6f, 0.7f));
+
+  m = material_of("Material \"matte\" \"rgb Kd\" [0.2 0.3 0.4] \"float sigma\" 20");
+  EXPECT_EQ(slot(m, SLOT_ON_REFLECTANCE), glm::vec3(0.2f, 0.3f, 0.4f));
+  EXPECT_EQ(m.value[SLOT_ON_SIGMA].x, 20.0f);
+
+  m = material_of("Material \"translucent\" \"rgb reflect\" [0.1 0.2 0.3] "
+                  "\"rgb transmit\" [0.4 0.5 0.6] \"float roughness\" 0.2");
+  EXPECT_EQ(slot(m, SLOT_TRANSLUCENT_REFLECT), glm::vec3(0.1f, 0.2f, 0.3f));
+  EXPECT_EQ(slot(m, SLOT_TRANSLUCENT_TRANSMIT), glm::vec3(0.4f, 0.5f, 0.6f));
+  EXPECT_EQ(m.value[SLOT_TRANSLUCENT_ROUGH].x, 0.2f);
+
+  m = material_of("Material \"diffusetransmission\" \"rgb transmittance\" [0.1 0.2 0.3] "
+                  "\"float scale\" 0.5 \"float sigma\" 10");
+  EXPECT_EQ(slot(m, SLOT_DT_TRANSMITTANCE), glm::vec3(0.1f, 0.2f, 0.3f));
+  EXPECT_EQ(m.value[SLOT_DT_SCALE].x, 0.5f);
+}
+
+TEST(Materials, RoughnessRemapAndDistribution) {
+  EXPECT_EQ(material_of("Material \"dielectric\" \"bool remaproughness\" false").flags,
+            MATFLAG_REMAP_NONE);
+  EXPECT_EQ(material_of("Material \"plastic\" \"bool remaproughness\" false").flags,
+            MATFLAG_REMAP_NONE);
+  EXPECT_EQ(material_of("Material \"metal\" \"string distribution\" \"beckmann\"").flags,
+            MATFLAG_REMAP_V3 | MATFLAG_BECKMANN);
+  EXPECT_EQ(material_of("Material \"substrate\" \"string distribution\" \"trowbridgereitz\"").flags,
+            MATFLAG_REMAP_V3);
+  EXPECT_EQ(material_of("Material \"glass\" \"string distribution\" \"beckmann\"").flags,
+            MATFLAG_BECKMANN);  // zero roughness: no remap
+  auto m = material_of("Material \"substrate\" \"float roughness\" 0.3");
+  EXPECT_EQ(m.value[SLOT_SUBSTRATE_UROUGH].x, 0.3f);
+  EXPECT_EQ(m.value[SLOT_SUBSTRATE_VROUGH].x, 0.3f);
+  // The distribution extension is for pbrt-v3 names only: unused (a warning) on pbrt-v4 names.
+  Scene s = parse("WorldBegin\nMaterial \"conductor\" \"string distribution\" \"beckmann\"\n"
+                  "Shape \"sphere\"\n");
+  EXPECT_TRUE(has_warning(s, "t.pbrt:2:22: warning: unused parameter \"string distribution\" for "
+                             "Material 'conductor' (not supported by basalt; ignored)"));
+}
+
+TEST(Materials, InterfaceSpellingsAndFeatureBits) {
+  Scene s = parse("WorldBegin\nMaterial \"\"\nShape \"sphere\"\nMaterial \"none\"\n"
+                  "Shape \"sphere\"\n");
+  EXPECT_TRUE(has_warning(
+      s, "t.pbrt:2:1: warning: material \"\" is deprecated; use \"interface\" (pbrt-v4)"));
+  EXPECT_TRUE(has_warning(
+      s, "t.pbrt:4:1: warning: material \"none\" is deprecated; use \"interface\" (pbrt-v4)"));
+  basalt::SceneTables t = basalt::build_tables(s);
+  EXPECT_EQ(t.materials[0].type, MATERIAL_INTERFACE);
+  EXPECT_EQ(t.materials[1].type, MATERIAL_INTERFACE);
+  EXPECT_EQ(t.features & (FEATURE_MAT_INTERFACE | FEATURE_MAT_DIFFUSE), FEATURE_MAT_INTERFACE);
+
+  // Each kind sets its own feature bit (and only kinds present are set).
+  struct Case {
+    const char* material;
+    std::uint32_t bit;
+  } cases[] = {{"diffuse", FEATURE_MAT_DIFFUSE},
+               {"matte", FEATURE_MAT_OREN_NAYAR},
+               {"conductor", FEATURE_MAT_CONDUCTOR},
+               {"dielectric", FEATURE_MAT_DIELECTRIC},
+               {"glass", FEATURE_MAT_DIELECTRIC},
+               {"thindielectric", FEATURE_MAT_THIN_DIELECTRIC},
+               {"diffusetransmission", FEATURE_MAT_DIFFUSE_TRANSMISSION},
+               {"coateddiffuse", FEATURE_MAT_COATED_DIFFUSE},
+               {"coatedconductor", FEATURE_MAT_COATED_CONDUCTOR},
+               {"plastic", FEATURE_MAT_PLASTIC},
+               {"substrate", FEATURE_MAT_SUBSTRATE},
+               {"translucent", FEATURE_MAT_TRANSLUCENT},
+               {"uber", FEATURE_MAT_UBER},
+               {"interface", FEATURE_MAT_INTERFACE},
+               {"mirror", FEATURE_MAT_MIRROR},
+               {"metal", FEATURE_MAT_METAL}};
+  std::uint32_t all_mats = 0;
+  for (std::uint32_t b = 7; b < FEATURE_COUNT; ++b)
+    if (b == 7 || b >= 11) all_mats |= 1u << b;
+  for (const Case& c : cases) {
+    Scene one = parse(std::string("WorldBegin\nMaterial \"") + c.material + "\"\nShape \"sphere\"\n");
+    EXPECT_EQ(basalt::build_tables(one).features & all_mats, c.bit) << c.material;
+  }
+}
+
+TEST(Materials, MixSemantics) {
+  const std::string defs =
+      "MakeNamedMaterial \"a\" \"string type\" \"diffuse\"\n"
+      "MakeNamedMaterial \"b\" \"string type\" \"conductor\"\n";
+  // pbrt-v4 syntax: stochastic; materials[1] gets amount -> aux1.
+  std::string v4 = defs + "Material \"mix\" \"string materials\" [\"a\" \"b\"] \"float amount\" 0.3";
+  Scene s = parse("WorldBegin\n" + v4 + "\nShape \"sphere\"\n");
+  basalt::SceneTables t = basalt::build_tables(s);
+  const auto& m = t.materials[std::size_t(s.shapes[0].material)];
+  EXPECT_EQ(m.type, MATERIAL_MIX);
+  EXPECT_EQ(m.aux0, 0u);
+  EXPECT_EQ(m.aux1, 1u);
+  EXPECT_EQ(m.value[SLOT_MIX_AMOUNT].x, 0.3f);
+  EXPECT_TRUE(t.features & FEATURE_MAT_MIX);
+  EXPECT_FALSE(t.features & FEATURE_MAT_MIX_WEIGHTED);
+  EXPECT_EQ(material_of(v4, MixMode::Weighted).type, MATERIAL_MIX_WEIGHTED);
+  EXPECT_EQ(material_of(v4, MixMode::Stochastic).type, MATERIAL_MIX);
+  EXPECT_EQ(material_of(defs + "Material \"mix\" \"string materials\" [\"a\" \"b\"]")
+                .value[SLOT_MIX_AMOUNT]
+                .x,
+            0.5f);
+
+  // pbrt-v3 syntax: weighted; namedmaterial1 is scaled by amount -> aux1.
+  std::string v3 = defs + "Material \"mix\" \"string namedmaterial1\" \"a\" "
+                          "\"string namedmaterial2\" \"b\" \"rgb amount\" [0.2 0.4 0.6]";
+  auto w = material_of(v3);
+  EXPECT_EQ(w.type, MATERIAL_MIX_WEIGHTED);
+  EXPECT_EQ(w.aux1, 0u);  // "a"
+  EXPECT_EQ(w.aux0, 1u);  // "b"
+  EXPECT_EQ(slot(w, SLOT_MIX_AMOUNT), glm::vec3(0.2f, 0.4f, 0.6f));
+  EXPECT_EQ(material_of(v3, MixMode::Weighted).type, MATERIAL_MIX_WEIGHTED);
+  // Forced stochastic: one probability, the mean of the rgb amount (with a warning).
+  Scene sv3 = load_scene_from_string("WorldBegin\n" + v3 + "\nShape \"sphere\"\n", "t.pbrt", ".",
+                                     MixMode::Stochastic);
+  EXPECT_EQ(sv3.mix_mode, MixMode::Stochastic);
+  std::vector<std::string> warnings;
+  t = basalt::build_tables(sv3, nullptr, &warnings);
+  const auto& st = t.materials[std::size_t(sv3.shapes[0].material)];
+  EXPECT_EQ(st.type, MATERIAL_MIX);
+  EXPECT_NEAR(st.value[SLOT_MIX_AMOUNT].x, 0.4f, 1e-6f);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0].rfind("t.pbrt:4:1: warning: a 'mix' material: rgb amount", 0), 0u)
+      << warnings[0];
+  EXPECT_EQ(material_of(defs + "Material \"mix\" \"string namedmaterial1\" \"a\" "
+                               "\"string namedmaterial2\" \"b\"")
+                .value[SLOT_MIX_AMOUNT],
+            glm::vec4(0.5f, 0.5f, 0.5f, 0.0f));
+
+  // Names may be defined after the mix (resolved at the end, as pbrt-v4 does); nesting and
+  // interfaces are fine in stochastic mixes.
+  Scene late = parse(
+      "WorldBegin\nMakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" "
+      "[\"x\" \"y\"]\nNamedMaterial \"m\"\nShape \"sphere\"\n"
+      "MakeNamedMaterial \"x\" \"string type\" \"interface\"\n"
+      "MakeNamedMaterial \"y\" \"string type\" \"mix\" \"string materials\" [\"x\" \"z\"]\n"
+      "MakeNamedMaterial \"z\" \"string type\" \"diffuse\"\n");
+  t = basalt::build_tables(late);
+  EXPECT_EQ(t.materials[0].type, MATERIAL_MIX);
+  EXPECT_EQ(t.materials[t.materials[0].aux1].type, MATERIAL_MIX);
+}
+
+TEST(MaterialErrors, LocatedMessages) {
+  const std::string defs =
+      "WorldBegin\nMakeNamedMaterial \"a\" \"string type\" \"diffuse\"\n"
+      "MakeNamedMaterial \"u\" \"string type\" \"uber\"\n"
+      "MakeNamedMaterial \"t\" \"string type\" \"translucent\"\n"
+      "MakeNamedMaterial \"i\" \"string type\" \"interface\"\n";  // materials end on line 5
+  EXPECT_EQ(error_of(defs + "Material \"mix\" \"string materials\" [\"a\" \"nope\"]\n" + "Shape \"sphere\"\n"),
+            "t.pbrt:6:16: error: mix refers to named material \"nope\", which is not defined");
+  EXPECT_EQ(error_of(defs + "Material \"mix\" \"string namedmaterial1\" \"a\"\n"
+                            "  \"string namedmaterial2\" \"gone\"\n"),
+            "t.pbrt:7:3: error: mix refers to named material \"gone\", which is not defined");
+  EXPECT_EQ(error_of(defs + "  Material \"mix\" \"string namedmaterial1\" \"u\" "
+                            "\"string namedmaterial2\" \"t\"\n"),
+            "t.pbrt:6:3: error: weighted mix of \"translucent\" and \"uber\" has up to 9 lobes; at "
+            "most 8 are supported (use --mix stochastic)");
+  EXPECT_EQ(error_of(defs + "Material \"mix\" \"string namedmaterial1\" \"a\" "
+                            "\"string namedmaterial2\" \"i\"\n"),
+            "t.pbrt:6:1: error: a weighted (pbrt-v3) mix cannot contain an interface (material "
+            "\"i\")");
+  EXPECT_EQ(error_of(defs + "MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" "
+                            "[\"a\" \"u\"]\nMaterial \"mix\" \"string namedmaterial1\" \"m\" "
+                            "\"string namedmaterial2\" \"a\"\n"),
+            "t.pbrt:7:1: error: a weighted (pbrt-v3) mix cannot contain another mix (material "
+            "\"m\"); render it with --mix stochastic");
+  EXPECT_EQ(error_of("WorldBegin\nMakeNamedMaterial \"m\" \"string type\" \"mix\" "
+                     "\"string materials\" [\"m\" \"m\"]\n"),
+            "t.pbrt:2:1: error: material \"m\" contains itself (mix cycle)");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"mix\" \"string materials\" [\"a\"]\n"),
+            "t.pbrt:2:16: error: mix needs exactly two names in \"string materials\", got 1");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"mix\" \"float amount\" 0.5\n"),
+            "t.pbrt:2:1: error: mix needs \"string materials\" [ \"a\" \"b\" ] (pbrt-v4) or "
+            "\"string namedmaterial1\" and \"string namedmaterial2\" (pbrt-v3)");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"mix\" \"string namedmaterial1\" \"a\"\n"),
+            "t.pbrt:2:1: error: a pbrt-v3 mix needs both \"string namedmaterial1\" and "
+            "\"string namedmaterial2\"");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"mix\" \"string materials\" [\"a\" \"b\"] "
+                     "\"rgb amount\" [1 1 1]\n"),
+            "t.pbrt:2:45: error: parameter \"amount\" has type rgb; expected float or texture");
+  // Mixes nested 17 deep.
+  std::string deep = "WorldBegin\nMakeNamedMaterial \"m0\" \"string type\" \"diffuse\"\n";
+  for (int i = 1; i <= 17; ++i)
+    deep += "MakeNamedMaterial \"m" + std::to_string(i) +
+            "\" \"string type\" \"mix\" \"string materials\" [\"m" + std::to_string(i - 1) +
+            "\" \"m0\"]\n";
+  EXPECT_EQ(error_of(deep), "t.pbrt:19:1: error: mix materials nested more than 16 deep");
+
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"conductor\" \"texture eta\" \"rust\"\n"),
+            "t.pbrt:2:22: error: textures are not supported yet (parameter \"eta\" refers to "
+            "texture \"rust\")");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"dielectric\" \"texture roughness\" \"r\"\n"),
+            "t.pbrt:2:23: error: textures are not supported yet (parameter \"uroughness\" refers "
+            "to texture \"r\")");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"diffuse\" \"string normalmap\" \"n.png\"\n"),
+            "t.pbrt:2:20: error: normal maps are not supported yet");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"plastic\" \"texture bumpmap\" \"b\"\n"),
+            "t.pbrt:2:20: error: bump maps are not supported yet");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"conductor\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+                     "  \"spectrum eta\" \"metal-Au-eta\"\n"),
+            "t.pbrt:2:22: error: give either \"reflectance\" or \"eta\" and \"k\", not both "
+            "(pbrt-v4 conductor)");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"metal\" \"string distribution\" \"blinn\"\n"),
+            "t.pbrt:2:18: error: distribution \"blinn\" is not supported (\"trowbridgereitz\", "
+            "the default, or \"beckmann\")");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"plastic\" \"float roughness\" -0.1\n"),
+            "t.pbrt:2:20: error: parameter \"roughness\" must not be negative");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"dielectric\" \"rgb eta\" [1.5 1.5 1.5]\n"),
+            "t.pbrt:2:23: error: parameter \"eta\" is an index of refraction: give a float or a "
+            "spectrum, not an rgb value");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"dielectric\" \"float eta\" 0\n"),
+            "t.pbrt:2:23: error: parameter \"eta\" must be positive");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"coateddiffuse\" \"integer nsamples\" 0\n"),
+            "t.pbrt:2:26: error: nsamples must be at least 1");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"coateddiffuse\" \"float g\" 2\n"),
+            "t.pbrt:2:26: error: parameter \"g\" must be in [-1, 1]");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"matte\" \"rgb Kd\" [-1 0 0]\n"),
+            "t.pbrt:2:18: error: parameter \"Kd\" has a negative component");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"coateddiffuse\" \"rgb albedo\" [2 0 0]\n"),
+            "t.pbrt:2:26: error: parameter \"albedo\" is a reflectance and has a component above 1");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"conductor\" \"spectrum eta\" \"metal-Pt-eta\"\n")
+                .rfind("t.pbrt:2:22: error: unknown named spectrum \"metal-Pt-eta\" for parameter "
+                       "\"eta\" (basalt knows metal-Ag-eta, ",
+                       0),
+            0u);
+  EXPECT_EQ(error_of("WorldBegin\nLightSource \"point\" \"blackbody I\" [6500 1]\n"),
+            "t.pbrt:2:21: error: blackbody parameter \"I\" takes one value, the temperature in "
+            "Kelvin (pbrt-v4)");
+  EXPECT_EQ(error_of("WorldBegin\nLightSource \"point\" \"blackbody I\" -5\n"),
+            "t.pbrt:2:21: error: blackbody parameter \"I\" needs a positive temperature");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"measured\"\n"),
+            "t.pbrt:2:1: error: measured needs a \"string filename\" parameter (a MERL .binary "
+            "file)");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"measured\" \"string filename\" \"paint.bsdf\"\n"),
+            "t.pbrt:2:21: error: RGL .bsdf measured BRDFs (pbrt-v4's format) are not supported; "
+            "basalt reads MERL .binary tables (pbrt-v2's measured material)");
+}
+
+TEST(Spectra, Conversions) {
+  // A constant spectrum maps to itself (reflectance rule), in any parameter.
+  basalt::Spectrum c;
+  c.lambda = {400.0, 700.0};
+  c.value = {0.3, 0.3};
+  glm::dvec3 rgb = basalt::spectrum_to_rgb_reflectance(c);
+  EXPECT_NEAR(rgb.x, 0.3, 1e-12);
+  EXPECT_NEAR(rgb.y, 0.3, 1e-12);
+  EXPECT_NEAR(rgb.z, 0.3, 1e-12);
+  EXPECT_EQ(slot(material_of("Material \"coateddiffuse\" \"spectrum albedo\" [300 0.7 900 0.7]"),
+                 SLOT_CD_ALBEDO),
+            glm::vec3(0.7f));
+  // Copper: low eta in red, rising to blue; high k, falling to blue (docs/materials.md table).
+  glm::vec3 eta = named("metal-Cu-eta"), k = named("metal-Cu-k");
+  EXPECT_NEAR(eta.x, 0.42f, 0.02f);
+  EXPECT_NEAR(eta.y, 0.95f, 0.02f);
+  EXPECT_NEAR(eta.z, 1.16f, 0.02f);
+  EXPECT_NEAR(k.x, 3.06f, 0.02f);
+  EXPECT_NEAR(k.y, 2.61f, 0.02f);
+  EXPECT_NEAR(k.z, 2.40f, 0.02f);
+  EXPECT_LT(eta.x, eta.y);
+  EXPECT_GT(k.x, k.z);
+  // Blackbody 6500 K as light: about white, luminance 1 (times scale).
+  glm::dvec3 bb = basalt::spectrum_to_rgb_illuminant(basalt::Spectrum::blackbody(6500.0));
+  double Y = 0.2126729 * bb.x + 0.7151522 * bb.y + 0.0721750 * bb.z;  // sRGB luminance
+  EXPECT_NEAR(Y, 1.0, 1e-3);
+  EXPECT_NEAR(bb.x, 1.0, 0.07);
+  EXPECT_NEAR(bb.y, 1.0, 0.07);
+  EXPECT_NEAR(bb.z, 1.0, 0.07);
+  // Lower temperatures are redder.
+  glm::dvec3 warm = basalt::spectrum_to_rgb_illuminant(basalt::Spectrum::blackbody(2700.0));
+  EXPECT_GT(warm.x, warm.y);
+  EXPECT_GT(warm.y, warm.z);
+  // The fitted CIE Y integrates to pbrt's CIE_Y_integral (106.857) within the fit's accuracy.
+  double y = 0.0;
+  for (double l = 360.0; l <= 830.0; l += 1.0) y += basalt::cie_xyz_fit(l).y;
+  EXPECT_NEAR(y, 106.857, 0.5);
+}
+
+TEST(Spectra, LightsAcceptSpectra) {
+  Scene s = parse(
+      "WorldBegin\nLightSource \"point\" \"blackbody I\" 6500 \"float scale\" 3\n"
+      "LightSource \"distant\" \"spectrum L\" [400 1 700 1]\n"
+      "AreaLightSource \"diffuse\" \"blackbody L\" [ 2700 ]\nShape \"sphere\"\n");
+  glm::vec3 bb = glm::vec3(basalt::spectrum_to_rgb_illuminant(basalt::Spectrum::blackbody(6500.0)));
+  expect_vec_near(s.lights[0].value, 3.0f * bb);
+  // Equal-energy white, normalised to luminance 1.
+  glm::vec3 e = s.lights[1].value;
+  EXPECT_NEAR(0.2126729f * e.x + 0.7151522f * e.y + 0.0721750f * e.z, 1.0f, 1e-3f);
+  EXPECT_GT(e.x, e.z);
+  glm::vec3 a = s.shapes[0].area_light->L;
+  EXPECT_GT(a.x, a.z);
+  EXPECT_TRUE(s.warnings.empty());
+}
+
+TEST(Spectra, DielectricEtaFromSpectrumIsTheValueAt550) {
+  float bk7 = float(basalt::named_spectrum("glass-BK7")->eval(550.0));
+  EXPECT_NEAR(bk7, 1.5185f, 1e-4f);
+  EXPECT_EQ(material_of("Material \"dielectric\" \"spectrum eta\" \"glass-BK7\"")
+                .value[SLOT_DIELECTRIC_ETA]
+                .x,
+            bk7);
+  EXPECT_EQ(material_of("Material \"thindielectric\" \"spectrum eta\" [500 1.4 600 1.6]")
+                .value[SLOT_THIN_ETA]
+                .x,
+            1.5f);
+  auto m = material_of("Material \"metal\" \"spectrum eta\" \"metal-Au-eta\" "
+                       "\"spectrum k\" \"metal-Au-k\"");
+  EXPECT_EQ(slot(m, SLOT_CONDUCTOR_ETA), named("metal-Au-eta"));
+  EXPECT_EQ(slot(m, SLOT_CONDUCTOR_K), named("metal-Au-k"));
+}
+
+TEST(Merl, WriterReaderRoundTrip) {
+  fs::path d = temp_dir("merl");
+  basalt::AnalyticBrdf brdf;
+  const glm::uvec3 dims(8, 6, 10);
+  basalt::write_merl((d / "t.binary").string(), dims,
+                     [&](const glm::dvec3& wi, const glm::dvec3& wo) { return brdf.eval(wi, wo); });
+  EXPECT_EQ(fs::file_size(d / "t.binary"), 12u + 3u * 8u * 6u * 10u * 8u);
+  basalt::MeasuredTable t = basalt::read_merl((d / "t.binary").string());
+  EXPECT_EQ(t.dims, dims);
+  ASSERT_EQ(t.rgb.size(), 3u * 8u * 6u * 10u);
+  int missing = 0;
+  for (unsigned ih = 0; ih < dims.x; ++ih)
+    for (unsigned id = 0; id < dims.y; ++id)
+      for (unsigned ip = 0; ip < dims.z; ++ip) {
+        std::size_t i = ip + dims.z * (id + dims.y * ih);
+        glm::dvec3 wi, wo;
+        bool ok = basalt::merl_bin_directions(dims, ih, id, ip, &wi, &wo);
+        glm::dvec3 f = ok ? brdf.eval(wi, wo) : glm::dvec3(0.0);  // missing -> 0
+        missing += !ok;
+        for (int c = 0; c < 3; ++c)
+          EXPECT_NEAR(t.rgb[3 * i + c], f[c], 1e-6 * std::max(1.0, f[c])) << i << " " << c;
+        if (ok) {  // the bin's directions are reflections about the half vector
+          glm::dvec3 h = glm::normalize(wi + wo);
+          EXPECT_NEAR(std::acos(std::min(1.0, h.z)),
+                      M_PI / 2 * std::pow((ih + 0.5) / dims.x, 2.0), 1e-9);
+          EXPECT_NEAR(std::acos(glm::dot(wi, h)), M_PI / 2 * (id + 0.5) / dims.y, 1e-9);
+        }
+      }
+  EXPECT_GT(missing, 0);  // grazing bins are below the surface
+
+  // Errors: missing file, short header, short body.
+  EXPECT_THROW(basalt::read_merl((d / "nope.binary").string()), std::runtime_error);
+  write_file(d / "short.binary", std::string("\x02\x00\x00\x00", 4));
+  EXPECT_THROW(basalt::read_merl((d / "short.binary").string()), std::runtime_error);
+  std::string body = std::string("\x02\x00\x00\x00\x02\x00\x00\x00\x02\x00\x00\x00", 12) +
+                     std::string(8 * 3 * 8 - 8, '\0');
+  write_file(d / "body.binary", body);
+  try {
+    basalt::read_merl((d / "body.binary").string());
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()), "file is short: 2 x 2 x 2 needs 204 bytes, found 196");
+  }
+}
+
+TEST(Merl, MeasuredMaterialInAScene) {
+  fs::path d = temp_dir("merl_scene");
+  fs::create_directories(d / "data");
+  basalt::AnalyticBrdf brdf;
+  basalt::write_merl((d / "data" / "p.binary").string(), glm::uvec3(4, 3, 5),
+                     [&](const glm::dvec3& wi, const glm::dvec3& wo) { return brdf.eval(wi, wo); });
+  Scene s = load_scene_from_string(
+      "WorldBegin\nMaterial \"measured\" \"string filename\" \"data/p.binary\"\nShape \"sphere\"\n"
+      "Material \"diffuse\"\nShape \"sphere\"\n"
+      "Material \"measured\" \"string filename\" \"data/../data/p.binary\"\nShape \"sphere\"\n",
+      "t.pbrt", d.string());
+  ASSERT_EQ(s.measured.size(), 1u);  // the same file once
+  basalt::SceneTables t = basalt::build_tables(s);
+  EXPECT_EQ(t.measured.size(), 3u * 4u * 3u * 5u);
+  const auto& m0 = t.materials[std::size_t(s.shapes[0].material)];
+  const auto& m2 = t.materials[std::size_t(s.shapes[2].material)];
+  EXPECT_EQ(m0.type, MATERIAL_MEASURED);
+  EXPECT_EQ(m0.aux0, 0u);
+  EXPECT_EQ(m2.aux0, 0u);
+  EXPECT_EQ(m0.value[SLOT_MEASURED_DIMS], glm::vec4(4, 3, 5, 0));
+  EXPECT_TRUE(t.features & FEATURE_MAT_MEASURED);
+  EXPECT_EQ(t.measured, s.measured[0].rgb);
+
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"measured\" \"string filename\" \"none.binary\"\n",
+                     d.string()),
+            "t.pbrt:2:21: error: measured BRDF file \"" + (d / "none.binary").string() +
+                "\": cannot open: No such file or directory");
+  write_file(d / "bad.binary", "12345");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"measured\" \"string filename\" \"bad.binary\"\n",
+                     d.string()),
+            "t.pbrt:2:21: error: measured BRDF file \"" + (d / "bad.binary").string() +
+                "\": file too short for the 12-byte header (3 int32 dimensions)");
+}
+
+TEST(Materials, TheCommittedMerlTableReads) {
+  basalt::MeasuredTable t = basalt::read_merl(
+      (fs::path(BASALT_SOURCE_DIR) / "scenes" / "data" / "gold-paint.binary").string());
+  EXPECT_EQ(t.dims, glm::uvec3(32, 16, 32));
+  EXPECT_LE(fs::file_size(fs::path(BASALT_SOURCE_DIR) / "scenes" / "data" / "gold-paint.binary"),
+            400000u);
 }

@@ -418,15 +418,68 @@ TEST(Tables, Materials) {
   EXPECT_EQ(t.spheres[0].material, 2u);
   EXPECT_TRUE(t.features & FEATURE_MAT_DIFFUSE);
 
-  Material metal;
-  metal.type = "conductor";
-  metal.loc = SourceLoc{"m.pbrt", 2, 1};
-  s.materials.push_back(metal);
+  Material velvet;
+  velvet.type = "velvet";
+  velvet.loc = SourceLoc{"m.pbrt", 2, 1};
+  s.materials.push_back(velvet);
   try {
     build_tables(s);
     FAIL() << "expected SceneError";
   } catch (const SceneError& e) {
-    EXPECT_EQ(std::string(e.what()), "m.pbrt:2:1: error: material 'conductor' is not supported yet");
+    EXPECT_EQ(std::string(e.what()), "m.pbrt:2:1: error: material 'velvet' is not supported yet");
+  }
+}
+
+// Hand-made materials (no parser): defaults of the kind table, measured offsets, mixes.
+TEST(Tables, MaterialsFromScene) {
+  Scene s = base_scene();
+  s.shapes.push_back(quad());
+  s.shapes.back().material = 0;
+  Material plastic;
+  plastic.type = "plastic";  // no params: pbrt-v3 defaults, remap V3
+  Material measured_a, measured_b;
+  measured_a.type = measured_b.type = "measured";
+  measured_a.measured = 1;
+  measured_b.measured = 0;
+  MeasuredTable t0, t1;
+  t0.dims = glm::uvec3(1, 1, 2);
+  t0.rgb = {1, 2, 3, 4, 5, 6};
+  t1.dims = glm::uvec3(1, 1, 1);
+  t1.rgb = {7, 8, 9};
+  s.measured = {t0, t1};
+  Material tt1, tt2, mix;
+  tt1.type = tt2.type = "translucent";
+  mix.type = "mix";
+  mix.mix_v3 = true;
+  mix.mix[0] = 4;
+  mix.mix[1] = 5;
+  s.materials = {plastic, measured_a, measured_b, mix, tt1, tt2};
+  SceneTables t = build_tables(s);
+  ASSERT_EQ(t.materials.size(), 6u);
+  EXPECT_EQ(t.materials[0].type, gpu::MATERIAL_PLASTIC);
+  EXPECT_EQ(t.materials[0].flags, gpu::MATFLAG_REMAP_V3);
+  EXPECT_EQ(t.materials[0].value[gpu::SLOT_PLASTIC_ROUGH].x, 0.1f);
+  EXPECT_EQ(t.measured, (std::vector<float>{1, 2, 3, 4, 5, 6, 7, 8, 9}));
+  EXPECT_EQ(t.materials[1].aux0, 6u);  // table 1 follows table 0
+  EXPECT_EQ(t.materials[2].aux0, 0u);
+  EXPECT_EQ(t.materials[1].value[gpu::SLOT_MEASURED_DIMS], glm::vec4(1, 1, 1, 0));
+  // Two translucent materials: 4 + 4 lobes = MAX_LOBES, accepted as a weighted mix.
+  EXPECT_EQ(t.materials[3].type, gpu::MATERIAL_MIX_WEIGHTED);
+  EXPECT_EQ(t.materials[3].value[gpu::SLOT_MIX_AMOUNT], glm::vec4(0.5f, 0.5f, 0.5f, 0.0f));
+  EXPECT_TRUE(t.features & gpu::FEATURE_MAT_MIX_WEIGHTED);
+  EXPECT_TRUE(t.features & gpu::FEATURE_MAT_MEASURED);
+  EXPECT_FALSE(t.features & gpu::FEATURE_MAT_MIX);
+  // The mix mode of the scene decides.
+  s.mix_mode = MixMode::Stochastic;
+  EXPECT_EQ(build_tables(s).materials[3].type, gpu::MATERIAL_MIX);
+  // An unresolved child is an error at the mix.
+  s.materials[3].mix[1] = -1;
+  s.materials[3].loc = SourceLoc{"x.pbrt", 7, 2};
+  try {
+    build_tables(s);
+    FAIL() << "expected SceneError";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(std::string(e.what()), "x.pbrt:7:2: error: mix refers to an undefined material");
   }
 }
 
@@ -457,6 +510,10 @@ TEST(Tables, FeatureNames) {
   std::vector<std::string> all = feature_names((1u << FEATURE_COUNT) - 1u);
   EXPECT_EQ(all.size(), FEATURE_COUNT);
   EXPECT_EQ(all[7], "material_diffuse");
+  EXPECT_EQ(all[11], "material_oren_nayar");
+  EXPECT_EQ(all[22], "material_measured");
+  EXPECT_EQ(all[27], "material_metal");
+  for (const std::string& n : all) EXPECT_EQ(n.rfind("feature_", 0), std::string::npos) << n;
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <stdexcept>
 
 #include "common/test_util.h"
 #include "vk/gpu_renderer.h"
@@ -33,7 +34,7 @@ TEST(Specialisation, SameImageAsAllFeatures) {
     const std::size_t before = ctx.validation_errors();
     std::vector<glm::vec4> a, b;
     {
-      vkx::GpuRenderer gpu(ctx, t, t.features);
+      vkx::GpuRenderer gpu(ctx, t, t.features, vkx::ShaderVariant::full);
       gpu.render(0, 2);
       a = gpu.accum();
     }
@@ -45,6 +46,64 @@ TEST(Specialisation, SameImageAsAllFeatures) {
     EXPECT_EQ(ctx.validation_errors(), before);
     ASSERT_EQ(a.size(), b.size());
     EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(glm::vec4)), 0) << file;
+  }
+}
+
+// Renders 2 samples per pixel of \p t with the pipeline specialised for \p features built
+// from render shader \p variant; checks that the variant is the one asked for.
+std::vector<glm::vec4> render_variant(const SceneTables& t, std::uint32_t features,
+                                      vkx::ShaderVariant variant, const char* expected) {
+  vkx::GpuRenderer gpu(gpu_context(), t, features, variant);
+  EXPECT_EQ(gpu.variant, expected);
+  gpu.render(0, 2);
+  return gpu.accum();
+}
+
+// For diffuse-only scenes the lean render shader (only MATERIAL_DIFFUSE compiled in) is the
+// automatic choice and renders, bit for bit, what the full shader renders, specialised or
+// with every feature.
+TEST(LeanVariant, SameImageAsFullForDiffuseScenes) {
+  for (const char* file : {"scenes/cornell-box.pbrt", "scenes/spheres-lights.pbrt",
+                           "scenes/igea-infinite.pbrt"}) {
+    SceneTables t = tables_from_file(source_path(file), 64, 48);
+    EXPECT_TRUE(vkx::GpuRenderer::lean_suffices(t.features)) << file;
+    auto& ctx = gpu_context();
+    const std::size_t before = ctx.validation_errors();
+    auto lean = render_variant(t, t.features, vkx::ShaderVariant::automatic, "lean");
+    auto full = render_variant(t, t.features, vkx::ShaderVariant::full, "full");
+    auto all = render_variant(t, 0xffffffffu, vkx::ShaderVariant::automatic, "full");
+    EXPECT_EQ(ctx.validation_errors(), before);
+    ASSERT_EQ(lean.size(), full.size());
+    ASSERT_EQ(lean.size(), all.size());
+    EXPECT_EQ(std::memcmp(lean.data(), full.data(), lean.size() * sizeof(glm::vec4)), 0) << file;
+    EXPECT_EQ(std::memcmp(lean.data(), all.data(), lean.size() * sizeof(glm::vec4)), 0) << file;
+  }
+}
+
+// A scene with any material kind other than diffuse never gets the lean shader: not by
+// default, and asking for it is an error.
+TEST(LeanVariant, NeverForOtherMaterials) {
+  for (const char* file : {"scenes/material-zoo.pbrt", "scenes/materials-coated.pbrt",
+                           "scenes/materials-conductors.pbrt", "scenes/materials-dielectrics.pbrt",
+                           "scenes/materials-diffuse.pbrt", "scenes/materials-measured.pbrt",
+                           "scenes/materials-mix.pbrt", "scenes/materials-transmission.pbrt"}) {
+    SceneTables t = tables_from_file(source_path(file), 8, 8);
+    ASSERT_NE(t.features & ~(gpu::FEATURE_MAT_DIFFUSE | (gpu::FEATURE_MAT_OREN_NAYAR - 1u)), 0u)
+        << file << " uses no material kind but diffuse";
+    EXPECT_FALSE(vkx::GpuRenderer::lean_suffices(t.features)) << file;
+    if (std::string(file) == "scenes/material-zoo.pbrt") {  // one pipeline build is enough
+      vkx::GpuRenderer gpu(gpu_context(), t);
+      EXPECT_EQ(gpu.variant, "full") << file;
+    }
+    EXPECT_THROW(vkx::GpuRenderer(gpu_context(), t, t.features, vkx::ShaderVariant::lean),
+                 std::invalid_argument)
+        << file;
+  }
+  // One bit of each material kind but diffuse is enough to rule lean out.
+  for (std::uint32_t bit = 0; bit < gpu::FEATURE_COUNT; ++bit) {
+    const std::uint32_t f = 1u << bit;
+    const bool material = f >= gpu::FEATURE_MAT_OREN_NAYAR;  // bits 11.. are material kinds
+    EXPECT_EQ(vkx::GpuRenderer::lean_suffices(gpu::FEATURE_MAT_DIFFUSE | f), !material) << bit;
   }
 }
 
