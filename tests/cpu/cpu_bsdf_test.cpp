@@ -14,30 +14,18 @@
 #include "cpu/probe.h"
 #include "cpu/rng.h"
 #include "cpu/sampling.h"
+#include "common/bsdf_check.h"
 
 using namespace basalt;
 using namespace basalt::cpu;
 
 namespace {
 
-/// A material record of `type` with every texture INVALID_INDEX.
-gpu::Material blank(std::uint32_t type, std::uint32_t flags = 0) {
-  gpu::Material m{};
-  m.type = type;
-  m.flags = flags;
-  for (auto& t : m.texture) t = glm::uvec4(gpu::INVALID_INDEX);
-  return m;
-}
-
-gpu::Material diffuse(glm::vec3 R) {
-  gpu::Material m = blank(gpu::MATERIAL_DIFFUSE);
-  m.value[gpu::SLOT_DIFFUSE_REFLECTANCE] = glm::vec4(R, 0.0f);
-  return m;
-}
-
-/// Sets slot s to v (rgb) or a float.
-void set(gpu::Material& m, std::uint32_t s, glm::vec3 v) { m.value[s] = glm::vec4(v, 0.0f); }
-void set(gpu::Material& m, std::uint32_t s, float v) { m.value[s] = glm::vec4(v, v, v, 0.0f); }
+// Material builders and the chi-square p-value are shared with the acceptance suite.
+using test::bsdf::blank;
+using test::bsdf::diffuse;
+using test::bsdf::gamma_q;
+using test::bsdf::set;
 
 /// Tables holding the given materials (material i at index i).
 SceneTables tables_of(const std::vector<gpu::Material>& ms) {
@@ -57,34 +45,6 @@ Bsdf bsdf_of(const SceneTables& t, std::uint32_t material = 0,
 
 const glm::vec3 kUp(0.0f, 0.0f, 1.0f);
 const glm::uvec4 kStream(1u, 2u, 3u, 4u);
-
-/// Regularised upper incomplete gamma Q(a, x) by series / continued fraction (Numerical
-/// Recipes 3rd ed. 6.2), for the chi-square p-value Q(dof/2, chi2/2).
-double gamma_q(double a, double x) {
-  if (x < a + 1.0) {
-    double sum = 1.0 / a, term = sum;
-    for (int n = 1; n < 1000; ++n) {
-      term *= x / (a + n);
-      sum += term;
-      if (std::fabs(term) < std::fabs(sum) * 1e-15) break;
-    }
-    return 1.0 - sum * std::exp(-x + a * std::log(x) - std::lgamma(a));
-  }
-  double b = x + 1.0 - a, c = 1.0 / 1e-300, d = 1.0 / b, h = d;
-  for (int i = 1; i < 1000; ++i) {
-    const double an = -i * (i - a);
-    b += 2.0;
-    d = an * d + b;
-    if (std::fabs(d) < 1e-300) d = 1e-300;
-    c = b + an / c;
-    if (std::fabs(c) < 1e-300) c = 1e-300;
-    d = 1.0 / d;
-    const double del = d * c;
-    h *= del;
-    if (std::fabs(del - 1.0) < 1e-15) break;
-  }
-  return std::exp(-x + a * std::log(x) - std::lgamma(a)) * h;
-}
 
 /// \brief pbrt-v4 bsdfs_test.cpp-style chi-square test of bsdf_sample (non-specular samples)
 ///        against bsdf_pdf integrated over (cos theta, phi) bins; cells with expected count < 5
@@ -353,74 +313,22 @@ TEST(CpuBsdf, LobesChiSquare) {
     ms.push_back(m);
     names.push_back(name);
   };
-  {
-    gpu::Material m = blank(MATERIAL_OREN_NAYAR);
-    set(m, SLOT_ON_REFLECTANCE, glm::vec3(0.5f));
-    set(m, SLOT_ON_SIGMA, 30.0f);
-    add("oren-nayar", m);
-  }
+  namespace tb = test::bsdf;
+  add("oren-nayar", tb::oren_nayar(glm::vec3(0.5f), 30.0f));
+  const glm::vec3 eta(0.2f, 0.9f, 1.1f), k(3.9f, 2.4f, 2.2f);
   for (std::uint32_t flags : {0u, MATFLAG_BECKMANN}) {
-    gpu::Material m = blank(MATERIAL_CONDUCTOR, flags);
-    set(m, SLOT_CONDUCTOR_ETA, glm::vec3(0.2f, 0.9f, 1.1f));
-    set(m, SLOT_CONDUCTOR_K, glm::vec3(3.9f, 2.4f, 2.2f));
-    set(m, SLOT_CONDUCTOR_UROUGH, 0.3f);
-    set(m, SLOT_CONDUCTOR_VROUGH, 0.15f);
-    add(flags ? "conductor-beckmann" : "conductor", m);
-    m.type = MATERIAL_METAL;
-    add(flags ? "metal-beckmann" : "metal", m);
+    const bool beck = flags != 0;
+    add(beck ? "conductor-beckmann" : "conductor", tb::conductor(eta, k, 0.3f, 0.15f, flags));
+    add(beck ? "metal-beckmann" : "metal", tb::conductor(eta, k, 0.3f, 0.15f, flags, true));
+    add(beck ? "rough-glass-beckmann" : "rough-glass", tb::dielectric(1.5f, 0.3f, 0.3f, flags));
   }
-  for (std::uint32_t flags : {0u, MATFLAG_BECKMANN}) {
-    gpu::Material m = blank(MATERIAL_DIELECTRIC, flags);
-    set(m, SLOT_DIELECTRIC_ETA, 1.5f);
-    set(m, SLOT_DIELECTRIC_UROUGH, 0.3f);
-    set(m, SLOT_DIELECTRIC_VROUGH, 0.3f);
-    set(m, SLOT_DIELECTRIC_KR, glm::vec3(1.0f));
-    set(m, SLOT_DIELECTRIC_KT, glm::vec3(1.0f));
-    add(flags ? "rough-glass-beckmann" : "rough-glass", m);
-  }
-  {
-    gpu::Material m = blank(MATERIAL_DIFFUSE_TRANSMISSION);
-    set(m, SLOT_DT_REFLECTANCE, glm::vec3(0.25f));
-    set(m, SLOT_DT_TRANSMITTANCE, glm::vec3(0.5f));
-    set(m, SLOT_DT_SCALE, 1.0f);
-    add("diffuse-transmission", m);
-  }
-  {
-    gpu::Material m = blank(MATERIAL_PLASTIC);
-    set(m, SLOT_PLASTIC_KD, glm::vec3(0.25f));
-    set(m, SLOT_PLASTIC_KS, glm::vec3(0.25f));
-    set(m, SLOT_PLASTIC_ROUGH, 0.1f);
-    add("plastic", m);
-  }
-  {
-    gpu::Material m = blank(MATERIAL_SUBSTRATE);
-    set(m, SLOT_SUBSTRATE_KD, glm::vec3(0.5f));
-    set(m, SLOT_SUBSTRATE_KS, glm::vec3(0.1f));
-    set(m, SLOT_SUBSTRATE_UROUGH, 0.2f);
-    set(m, SLOT_SUBSTRATE_VROUGH, 0.1f);
-    add("substrate", m);
-  }
-  {
-    gpu::Material m = blank(MATERIAL_TRANSLUCENT);
-    set(m, SLOT_TRANSLUCENT_KD, glm::vec3(0.5f));
-    set(m, SLOT_TRANSLUCENT_KS, glm::vec3(0.5f));
-    set(m, SLOT_TRANSLUCENT_REFLECT, glm::vec3(0.5f));
-    set(m, SLOT_TRANSLUCENT_TRANSMIT, glm::vec3(0.5f));
-    set(m, SLOT_TRANSLUCENT_ROUGH, 0.2f);
-    add("translucent", m);
-  }
-  {
-    gpu::Material m = blank(MATERIAL_UBER);
-    set(m, SLOT_UBER_KD, glm::vec3(0.25f));
-    set(m, SLOT_UBER_KS, glm::vec3(0.25f));
-    set(m, SLOT_UBER_KR, glm::vec3(0.1f));
-    set(m, SLOT_UBER_KT, glm::vec3(0.1f));
-    set(m, SLOT_UBER_UROUGH, 0.2f);
-    set(m, SLOT_UBER_VROUGH, 0.2f);
-    set(m, SLOT_UBER_ETA, 1.5f);
-    set(m, SLOT_UBER_OPACITY, glm::vec3(0.8f));
-    add("uber", m);
-  }
+  add("diffuse-transmission", tb::diffuse_transmission(glm::vec3(0.25f), glm::vec3(0.5f)));
+  add("plastic", tb::plastic(glm::vec3(0.25f), glm::vec3(0.25f), 0.1f));
+  add("substrate", tb::substrate(glm::vec3(0.5f), glm::vec3(0.1f), 0.2f, 0.1f));
+  add("translucent", tb::translucent(glm::vec3(0.5f), glm::vec3(0.5f), glm::vec3(0.5f),
+                                     glm::vec3(0.5f), 0.2f));
+  add("uber", tb::uber(glm::vec3(0.25f), glm::vec3(0.25f), glm::vec3(0.1f), glm::vec3(0.1f),
+                       0.2f, 0.2f, 1.5f, glm::vec3(0.8f)));
   const SceneTables t = tables_of(ms);
   for (std::uint32_t i = 0; i < ms.size(); ++i) {
     const Bsdf b = bsdf_of(t, i);
@@ -435,14 +343,8 @@ TEST(CpuBsdf, LobesChiSquare) {
 // thin dielectric conserve energy up to the microfacet model's single-scattering loss.
 TEST(CpuBsdf, AlbedoAtMostOne) {
   using namespace gpu;
-  gpu::Material glass = blank(MATERIAL_DIELECTRIC);
-  set(glass, SLOT_DIELECTRIC_ETA, 1.5f);
-  set(glass, SLOT_DIELECTRIC_UROUGH, 0.05f);
-  set(glass, SLOT_DIELECTRIC_VROUGH, 0.05f);
-  set(glass, SLOT_DIELECTRIC_KR, glm::vec3(1.0f));
-  set(glass, SLOT_DIELECTRIC_KT, glm::vec3(1.0f));
-  gpu::Material thin = blank(MATERIAL_THIN_DIELECTRIC);
-  set(thin, SLOT_THIN_ETA, 1.5f);
+  const gpu::Material glass = test::bsdf::dielectric(1.5f, 0.05f, 0.05f);
+  const gpu::Material thin = test::bsdf::thin_dielectric(1.5f);
   const SceneTables t = tables_of({glass, thin});
   const glm::vec3 wo = glm::normalize(glm::vec3(0.5f, 0.0f, 0.7f));
   // Rough glass, radiance mode: albedo = R + T / eta^2 with the microfacet loss small.
@@ -459,33 +361,16 @@ TEST(CpuBsdf, AlbedoAtMostOne) {
 // is smooth); both stay below 1.
 TEST(CpuBsdf, LayeredSampleMatchesEval) {
   using namespace gpu;
-  gpu::Material cd = blank(MATERIAL_COATED_DIFFUSE);
-  set(cd, SLOT_CD_REFLECTANCE, glm::vec3(0.6f, 0.4f, 0.2f));
-  set(cd, SLOT_CD_UROUGH, 0.1f);
-  set(cd, SLOT_CD_VROUGH, 0.1f);
-  set(cd, SLOT_CD_THICKNESS, 0.01f);
-  set(cd, SLOT_CD_ETA, 1.5f);
-  set(cd, SLOT_CD_ALBEDO, glm::vec3(0.0f));
-  set(cd, SLOT_CD_G, 0.0f);
-  cd.aux0 = 10;
-  cd.aux1 = 1;
-  gpu::Material cd_albedo = cd;
-  set(cd_albedo, SLOT_CD_ALBEDO, glm::vec3(0.5f));
-  set(cd_albedo, SLOT_CD_G, 0.3f);
-  set(cd_albedo, SLOT_CD_THICKNESS, 0.2f);
-  gpu::Material cc = blank(MATERIAL_COATED_CONDUCTOR);
-  set(cc, SLOT_CC_IF_UROUGH, 0.0f);
-  set(cc, SLOT_CC_IF_VROUGH, 0.0f);
-  set(cc, SLOT_CC_THICKNESS, 0.01f);
-  set(cc, SLOT_CC_IF_ETA, 1.5f);
-  set(cc, SLOT_CC_G, 0.0f);
-  set(cc, SLOT_CC_ALBEDO, glm::vec3(0.0f));
-  set(cc, SLOT_CC_UROUGH, 0.2f);
-  set(cc, SLOT_CC_VROUGH, 0.2f);
-  set(cc, SLOT_CC_ETA, glm::vec3(0.2f, 0.9f, 1.1f));
-  set(cc, SLOT_CC_K, glm::vec3(3.9f, 2.4f, 2.2f));
-  cc.aux0 = 10;
-  cc.aux1 = 1;
+  namespace tb = test::bsdf;
+  const gpu::Material cd =
+      tb::coated_diffuse(glm::vec3(0.6f, 0.4f, 0.2f), 0.1f, 0.1f, 0.01f, 1.5f, glm::vec3(0.0f),
+                         0.0f, 10, 1);
+  const gpu::Material cd_albedo =
+      tb::coated_diffuse(glm::vec3(0.6f, 0.4f, 0.2f), 0.1f, 0.1f, 0.2f, 1.5f, glm::vec3(0.5f),
+                         0.3f, 10, 1);
+  const gpu::Material cc =
+      tb::coated_conductor(0.0f, 0.0f, 0.01f, 1.5f, 0.0f, glm::vec3(0.0f), 0.2f, 0.2f,
+                           glm::vec3(0.2f, 0.9f, 1.1f), glm::vec3(3.9f, 2.4f, 2.2f), 10, 1);
   const SceneTables t = tables_of({cd, cd_albedo, cc});
   for (std::uint32_t i = 0; i < 3; ++i) {
     const Bsdf b = bsdf_of(t, i);

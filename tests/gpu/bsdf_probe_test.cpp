@@ -127,6 +127,38 @@ struct KindStats {
               excused_measured = 0, stochastic = 0, failures = 0;
 };
 
+/// CPU answers for mismatched queries asked again with wi = the direction that `from` (one
+/// side's results) sampled.
+struct Requery {
+  std::vector<Result> answers;
+  std::vector<std::size_t> index;  // per mismatched query: its answer, or SIZE_MAX (not asked)
+};
+
+/// Re-asks the CPU, at the sampled direction of `from`, every mismatched query whose sample
+/// f or pdf differs, whose sample is neither specular nor proportional, and whose difference
+/// mask has none of the bits of `skip_if`.
+Requery cpu_at_sampled_direction(const Workload& w, const SceneTables& t,
+                                 const std::vector<std::size_t>& mismatched,
+                                 const std::vector<unsigned>& diff,
+                                 const std::vector<Result>& from, unsigned skip_if) {
+  Requery r;
+  r.index.assign(mismatched.size(), SIZE_MAX);
+  std::vector<Query> qs;
+  for (std::size_t j = 0; j < mismatched.size(); ++j) {
+    const std::size_t i = mismatched[j];
+    const Result& f = from[i];
+    if ((diff[i] & skip_if) || !(diff[i] & (kSampleF | kSamplePdf | kPdfAtSample)) ||
+        !f.sampled() || f.proportional || (f.sflags & gpu::BSDF_SPECULAR))
+      continue;
+    Query q = w.qs[i];
+    q.wi = f.swi;
+    r.index[j] = qs.size();
+    qs.push_back(q);
+  }
+  r.answers = run(Side::Cpu, t, qs);
+  return r;
+}
+
 /// Runs a workload on both sides and checks agreement; prints per-kind statistics.
 void check_agreement(const Workload& w, double max_excused_fraction,
                      double max_stochastic_fraction, double max_failure_fraction) {
@@ -163,39 +195,13 @@ void check_agreement(const Workload& w, double max_excused_fraction,
   // direction difference of a few 1e-7 (the GPU's sin and cos are not correctly rounded)
   // changes D by ~1e-3 relative; if the CPU's values at the GPU's direction equal the GPU's
   // sample, both implement the same function and only the direction's rounding differs.
-  std::vector<Query> cq;
-  std::vector<std::size_t> cq_of(mismatched.size(), SIZE_MAX);
-  for (std::size_t j = 0; j < mismatched.size(); ++j) {
-    const std::size_t i = mismatched[j];
-    const Result& g = gpu[i];
-    if ((diff[i] & kSampleWi) || !(diff[i] & (kSampleF | kSamplePdf | kPdfAtSample)) ||
-        !g.sampled() || g.proportional || (g.sflags & gpu::BSDF_SPECULAR))
-      continue;
-    Query q = w.qs[i];
-    q.wi = g.swi;
-    cq_of[j] = cq.size();
-    cq.push_back(q);
-  }
-  const std::vector<Result> at_gpu_dir = run(Side::Cpu, t, cq);
+  const Requery at_gpu = cpu_at_sampled_direction(w, t, mismatched, diff, gpu, kSampleWi);
   // Self-consistency of the CPU's own sample: a lobe's sample computes f and pdf from the
   // sampled microfacet normal, bsdf_eval from the normal recomputed from (wo, wi). Where the
   // two differ by more than the tolerance on the CPU alone (narrow lobes, where D changes at
   // a rate of 1/alpha^2 per radian), the sample's value is not determined to 1e-4 by float
   // arithmetic and cannot be compared to 1e-4 across implementations either.
-  std::vector<Query> sq;
-  std::vector<std::size_t> sq_of(mismatched.size(), SIZE_MAX);
-  for (std::size_t j = 0; j < mismatched.size(); ++j) {
-    const std::size_t i = mismatched[j];
-    const Result& c = cpu[i];
-    if (!(diff[i] & (kSampleF | kSamplePdf | kPdfAtSample)) || !c.sampled() || c.proportional ||
-        (c.sflags & gpu::BSDF_SPECULAR))
-      continue;
-    Query q = w.qs[i];
-    q.wi = c.swi;
-    sq_of[j] = sq.size();
-    sq.push_back(q);
-  }
-  const std::vector<Result> at_cpu_dir = run(Side::Cpu, t, sq);
+  const Requery at_cpu = cpu_at_sampled_direction(w, t, mismatched, diff, cpu, 0);
   std::map<std::uint32_t, KindStats> stats;
   for (std::size_t i = 0; i < w.qs.size(); ++i) {
     KindStats& s = stats[w.kind[i]];
@@ -236,8 +242,8 @@ void check_agreement(const Workload& w, double max_excused_fraction,
         continue;
       }
     }
-    if (sq_of[j] != SIZE_MAX) {
-      const Result& c = at_cpu_dir[sq_of[j]];
+    if (at_cpu.index[j] != SIZE_MAX) {
+      const Result& c = at_cpu.answers[at_cpu.index[j]];
       if (!close(c.f, cpu[i].sf) || !close(c.pdf, cpu[i].spdf))
         d &= ~unsigned(kSampleF | kSamplePdf | kPdfAtSample);
       if (d == 0) {
@@ -245,8 +251,8 @@ void check_agreement(const Workload& w, double max_excused_fraction,
         continue;
       }
     }
-    if (cq_of[j] != SIZE_MAX) {
-      const Result& c = at_gpu_dir[cq_of[j]];
+    if (at_gpu.index[j] != SIZE_MAX) {
+      const Result& c = at_gpu.answers[at_gpu.index[j]];
       const Result& g = gpu[i];
       if (close(c.f, g.sf) && close(c.pdf, g.spdf) && close(c.pdf, g.pdf_at_sample) &&
           (d & ~unsigned(kSampleF | kSamplePdf | kPdfAtSample) & ~ill[j]) == 0 &&
