@@ -375,7 +375,8 @@ BsdfSample bsdf_sample(const Bsdf& b, glm::vec3 wo, glm::vec3 u, glm::vec3 ng,
   const float uc = std::fmin(u.x * n - float(k), ONE_MINUS_EPSILON);
   const Lobe& lobe = b.lobes[k];
   BsdfSample s = lobe_sample(b, lobe, wo, uc, glm::vec2(u.y, u.z), stream);
-  if (s.flags == 0 || !(s.pdf > 0.0f)) return BsdfSample{};
+  // pbrt-v3 BSDF::Sample_f: none if the sampled lobe's own pdf is 0 (subnormal counts as 0).
+  if (s.flags == 0 || !(s.pdf >= FLT_MIN)) return BsdfSample{};
   // Light-leak rule (1.2): the sample's kind must match the geometric side of wi.
   if (((s.flags & gpu::BSDF_REFLECTION) != 0) != geo_reflect(wo, s.wi, ng)) return BsdfSample{};
   if (b.n == 1 || bxdf::is_specular(s.flags) || s.pdf_is_proportional) {

@@ -50,6 +50,21 @@ inline glm::vec3 face_forward(glm::vec3 n, glm::vec3 v) {
   return glm::dot(n, v) < 0.0f ? -n : n;
 }
 
+/// \brief (cos 2 pi u, sin 2 pi u) for u in [0, 1], with u reduced to [-1/4, 1/4] first
+///        (exactly), so that both keep their relative accuracy near their zeros
+///        (docs/materials-spec.md 2.1 numerics).
+inline glm::vec2 cos_sin_2pi(float u) {
+  float w = u, sign = 1.0f;
+  if (u > 0.75f) {
+    w = u - 1.0f;
+  } else if (u > 0.25f) {
+    w = u - 0.5f;
+    sign = -1.0f;
+  }
+  const float a = 2.0f * PI * w;
+  return sign * glm::vec2(std::cos(a), std::sin(a));
+}
+
 // ---- roughness (docs/materials-spec.md 1.4) ------------------------------------------------
 
 /// \brief alpha of a roughness value by the remap of Material.flags & MATFLAG_REMAP_MASK: NONE
@@ -91,39 +106,35 @@ struct Microfacet {
   /// pbrt-v4 EffectivelySmooth: max(ax, ay) < 1e-3 (the lobe is specular).
   bool effectively_smooth() const { return std::fmax(ax, ay) < 1e-3f; }
 
-  /// Microfacet normal density D(wm) (pbrt-v4 TrowbridgeReitzDistribution::D; pbrt-v3
-  /// BeckmannDistribution::D). 0 where tan^2 theta is infinite.
+  /// \brief Microfacet normal density D(wm) (pbrt-v4 TrowbridgeReitzDistribution::D; pbrt-v3
+  ///        BeckmannDistribution::D), with the angle terms from the components
+  ///        (docs/materials-spec.md 2.1 numerics). 0 in the tangent plane.
   float D(glm::vec3 wm) const {
-    const float tan2 = tan2_theta(wm);
-    if (std::isinf(tan2)) return 0.0f;
-    const float cos4 = cos2_theta(wm) * cos2_theta(wm);
+    const float z2 = wm.z * wm.z;
+    const float ex = wm.x / ax, ey = wm.y / ay;
+    const float e2 = ex * ex + ey * ey;  // tan^2 theta (cos^2 phi / ax^2 + sin^2 phi / ay^2) z2
     if (beckmann) {
-      const float cp = cos_phi(wm), sp = sin_phi(wm);
-      return std::exp(-tan2 * (cp * cp / (ax * ax) + sp * sp / (ay * ay))) /
-             (PI * ax * ay * cos4);
+      if (z2 == 0.0f) return 0.0f;
+      return std::exp(-e2 / z2) / (PI * ax * ay * z2 * z2);
     }
-    if (cos4 < 1e-16f) return 0.0f;
-    const float cx = cos_phi(wm) / ax, sy = sin_phi(wm) / ay;
-    const float e = tan2 * (cx * cx + sy * sy);
-    return 1.0f / (PI * ax * ay * cos4 * ((1.0f + e) * (1.0f + e)));
+    if (z2 * z2 < 1e-16f) return 0.0f;
+    const float q = z2 + e2;  // cos^2 theta (1 + e)
+    return 1.0f / (PI * ax * ay * q * q);
   }
 
-  /// Smith's Lambda(w) (pbrt-v4 TR closed form; pbrt-v3 Beckmann rational approximation).
+  /// \brief Smith's Lambda(w) (pbrt-v4 TR closed form; pbrt-v3 Beckmann rational
+  ///        approximation), angle terms from the components (materials-spec 2.1 numerics).
   float Lambda(glm::vec3 w) const {
+    if (w.z == 0.0f) return 0.0f;
+    const float axx = ax * w.x, ayy = ay * w.y;
+    const float a2 = axx * axx + ayy * ayy;  // alpha^2 tan^2 theta cos^2 theta
     if (beckmann) {
-      const float abs_tan = std::fabs(tan_theta(w));
-      if (std::isinf(abs_tan)) return 0.0f;
-      const float cp = cos_phi(w), sp = sin_phi(w);
-      const float alpha = std::sqrt(cp * cp * ax * ax + sp * sp * ay * ay);
-      const float a = 1.0f / (alpha * abs_tan);
+      const float a = std::fabs(w.z) / std::sqrt(a2);
       if (a >= 1.6f) return 0.0f;
       return (1.0f - 1.259f * a + 0.396f * a * a) / (3.535f * a + 2.181f * a * a);
     }
-    const float tan2 = tan2_theta(w);
-    if (std::isinf(tan2)) return 0.0f;
-    const float cx = cos_phi(w) * ax, sy = sin_phi(w) * ay;
-    const float alpha2 = cx * cx + sy * sy;
-    return (std::sqrt(1.0f + alpha2 * tan2) - 1.0f) / 2.0f;
+    const float s = a2 / (w.z * w.z);
+    return s / (2.0f * (1.0f + std::sqrt(1.0f + s)));
   }
 
   /// Masking G1(w) = 1 / (1 + Lambda(w)).
@@ -145,20 +156,23 @@ struct Microfacet {
   ///        side). docs/materials-spec.md 2.1.
   glm::vec3 sample_wm(glm::vec3 w, glm::vec2 u) const {
     if (beckmann) {
-      float tan2, phi;
-      const float log_sample = std::log(1.0f - u.x);
+      float tan2;
+      glm::vec2 cs;  // (cos phi, sin phi)
+      const float log_sample = std::log1p(-u.x);
       if (ax == ay) {
         tan2 = -ax * ax * log_sample;
-        phi = u.y * 2.0f * PI;
+        const float phi = u.y * 2.0f * PI;
+        cs = glm::vec2(std::cos(phi), std::sin(phi));
       } else {
-        phi = std::atan(ay / ax * std::tan(2.0f * PI * u.y + 0.5f * PI));
-        if (u.y > 0.5f) phi += PI;
-        const float sp = std::sin(phi), cp = std::cos(phi);
-        tan2 = -log_sample / (cp * cp / (ax * ax) + sp * sp / (ay * ay));
+        // pbrt-v3's phi = atan(ay/ax tan(2 pi u1 + pi/2)) (+ pi if u1 > 1/2), as a direction.
+        const glm::vec2 t = cos_sin_2pi(u.y);
+        const glm::vec2 v(ax * t.y, -ay * t.x);
+        cs = v / std::sqrt(v.x * v.x + v.y * v.y);
+        tan2 = -log_sample / (cs.x * cs.x / (ax * ax) + cs.y * cs.y / (ay * ay));
       }
       const float cos_t = 1.0f / std::sqrt(1.0f + tan2);
-      const float sin_t = std::sqrt(std::fmax(0.0f, 1.0f - cos_t * cos_t));
-      glm::vec3 wh = spherical_direction(sin_t, cos_t, phi);
+      const float sin_t = std::sqrt(tan2) * cos_t;
+      glm::vec3 wh(sin_t * cs.x, sin_t * cs.y, cos_t);
       if (!same_hemisphere(w, wh)) wh = -wh;
       return wh;
     }
@@ -166,21 +180,33 @@ struct Microfacet {
     glm::vec3 wh = safe_normalize(glm::vec3(ax * w.x, ay * w.y, w.z));
     if (wh.z < 0.0f) wh = -wh;
     // Orthonormal basis for visible normal sampling.
-    const glm::vec3 T1 = wh.z < 0.99999f
-                             ? safe_normalize(glm::cross(glm::vec3(0.0f, 0.0f, 1.0f), wh))
-                             : glm::vec3(1.0f, 0.0f, 0.0f);
+    const bool cross_branch = wh.z < 0.99999f;
+    const glm::vec3 T1 =
+        cross_branch ? safe_normalize(glm::vec3(-wh.y, wh.x, 0.0f)) : glm::vec3(1.0f, 0.0f, 0.0f);
     const glm::vec3 T2 = glm::cross(wh, T1);
-    // pbrt-v4 SampleUniformDiskPolar.
+    // pbrt-v4 SampleUniformDiskPolar, then the Lerp((1 + wh.z) / 2, h, p.y) warp and the
+    // reprojection, in the rim-stable form of materials-spec 2.1 numerics.
     const float r = std::sqrt(u.x);
-    const float theta = 2.0f * PI * u.y;
-    glm::vec2 p(r * std::cos(theta), r * std::sin(theta));
-    // Warp the hemispherical projection: Lerp((1 + wh.z) / 2, h, p.y).
-    const float h = std::sqrt(1.0f - p.x * p.x);
+    const glm::vec2 cs = cos_sin_2pi(u.y);
+    const float px = r * cs.x, py = r * cs.y;
+    const float one_minus_u0 = 1.0f - u.x;
+    const float h = std::sqrt(one_minus_u0 + u.x * cs.y * cs.y);  // sqrt(1 - px^2)
+    float d, e;                                                     // h - py, h + py
+    if (py >= 0.0f) {
+      e = h + py;
+      d = e > 0.0f ? one_minus_u0 / e : 0.0f;
+    } else {
+      d = h - py;
+      e = one_minus_u0 / d;
+    }
+    const float rho2 = wh.x * wh.x + wh.y * wh.y;
     const float t = (1.0f + wh.z) / 2.0f;
-    p.y = (1.0f - t) * h + t * p.y;
-    // Reproject to the hemisphere and transform back to the ellipsoid configuration.
-    const float pz = std::sqrt(std::fmax(0.0f, 1.0f - (p.x * p.x + p.y * p.y)));
-    const glm::vec3 nh = p.x * T1 + p.y * T2 + pz * wh;
+    const float one_minus_t = rho2 / (2.0f * (1.0f + wh.z));
+    const float py2 = h - t * d;
+    const float pz = std::sqrt(std::fmax(0.0f, t * d * (2.0f * one_minus_t * h + t * e)));
+    glm::vec3 nh = px * T1 + py2 * T2 + pz * wh;
+    if (cross_branch && py2 < 0.0f)
+      nh.z = t * e * (wh.z * h - py2) / (wh.z * pz - std::sqrt(rho2) * py2);
     return safe_normalize(glm::vec3(ax * nh.x, ay * nh.y, std::fmax(1e-6f, nh.z)));
   }
 };

@@ -544,8 +544,8 @@ bool geo_reflect(vec3 wo, vec3 wi, vec3 ng) { return dot_exact(wo, ng) * dot_exa
 //   u_lobe' = min(u_lobe n - k, OneMinusEpsilon) (pbrt-v3 BSDF::Sample_f); a sample whose kind
 //   disagrees with the geometric normal is none; specular, stochastic (pdf_is_proportional) and
 //   single-lobe samples keep their f (weight applied) and pdf / n, others take f and pdf of
-//   all lobes at wi; empty samples (f = 0, pdf = 0, wi.z = 0) are none (pbrt-v4
-//   BSDF::Sample_f).
+//   all lobes at wi (none if the sampled lobe's own pdf there is below FLT_MIN, pbrt-v3);
+//   empty samples (f = 0, pdf = 0, wi.z = 0) are none (pbrt-v4 BSDF::Sample_f).
 BsdfQuery bsdf_query(Bsdf b, uint op, vec3 wo, vec3 wi, vec3 u, vec3 ng, uvec4 stream) {
   BsdfQuery r = BsdfQuery(vec3(0.0), 0.0, no_sample());
   if (wo.z == 0.0 || b.n == 0u) return r;
@@ -565,6 +565,7 @@ BsdfQuery bsdf_query(Bsdf b, uint op, vec3 wo, vec3 wi, vec3 u, vec3 ng, uvec4 s
   }
   // Job t: the lobe sample first (t = 0 when sampling), then f / pdf of lobe k = t - first.
   uint first = sampling ? 1u : 0u;
+  float own_pdf = 0.0;  // the sampled lobe's pdf at its wi (re-evaluated samples)
   [[dont_unroll]] for (uint t = 0u; t < first + b.n; ++t) {
     if (sampling && t == 1u) {
       // After the lobe sample: keep it, or re-evaluate f and pdf of all lobes at its wi.
@@ -599,6 +600,7 @@ BsdfQuery bsdf_query(Bsdf b, uint op, vec3 wo, vec3 wi, vec3 u, vec3 ng, uvec4 s
     } else {
       if ((q & QUERY_F) != 0u) r.f += L.weight * f;
       if ((q & QUERY_PDF) != 0u) r.pdf += pdf;
+      if (sampling && k == ks) own_pdf = pdf;
     }
   }
   if (!sampling) {
@@ -606,7 +608,7 @@ BsdfQuery bsdf_query(Bsdf b, uint op, vec3 wo, vec3 wi, vec3 u, vec3 ng, uvec4 s
   } else if (r.bs.flags != 0u) {
     if (b.n > 1u && !r.bs.pdf_is_proportional && (r.bs.flags & BSDF_SPECULAR) == 0u) {
       r.bs.f = r.f;
-      r.bs.pdf = r.pdf / n;
+      r.bs.pdf = own_pdf < FLT_MIN ? 0.0 : r.pdf / n;  // pbrt-v3: the lobe's own pdf > 0
     }
     if (!nonzero(r.bs.f) || r.bs.pdf == 0.0 || r.bs.wi.z == 0.0) r.bs = no_sample();
   }

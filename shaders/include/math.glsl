@@ -7,6 +7,7 @@ const float INV_PI = 0.31830988618379067154;
 const float PI_OVER_2 = 1.57079632679489661923;
 const float PI_OVER_4 = 0.78539816339744830962;
 const float FLT_MAX = 3.402823466e+38;
+const float FLT_MIN = 1.17549435e-38;  // smallest normal float
 
 // sqrt clamped at 0 so that rounding below zero gives 0, not NaN (pbrt-v4 SafeSqrt).
 float safe_sqrt(float x) { return sqrt(max(x, 0.0)); }
@@ -36,6 +37,16 @@ vec3 safe_normalize(vec3 v) {
 // copysign(m, s) for m >= 0: m with the sign bit of s (also for s = -0).
 float copysign_pos(float m, float s) {
   return uintBitsToFloat(floatBitsToUint(m) | (floatBitsToUint(s) & 0x80000000u));
+}
+
+// ln(1 + x) for x > -1, accurate near x = 0 as well (the GPU's log is only accurate in
+// absolute terms there): 2 atanh(s), s = x / (2 + x), by its series for |x| < 1/8 (s^2 <= 0.0035,
+// five terms reach float precision); log(1 + x) otherwise. docs/materials-spec.md 2.1 numerics.
+precise float log1p_accurate(float x) {
+  if (abs(x) >= 0.125) return log(1.0 + x);
+  precise float s = x / (2.0 + x);
+  precise float s2 = s * s;
+  return 2.0 * s * (1.0 + s2 * (1.0 / 3.0 + s2 * (1.0 / 5.0 + s2 * (1.0 / 7.0 + s2 / 9.0))));
 }
 
 #endif

@@ -41,6 +41,20 @@ precise float roughness_to_alpha(float r, uint flags) {
   return r;
 }
 
+// (cos 2 pi u, sin 2 pi u) for u in [0, 1], u reduced exactly to [-1/4, 1/4] first so that
+// both keep their relative accuracy near their zeros (materials-spec 2.1 numerics).
+precise vec2 cos_sin_2pi(float u) {
+  float w = u, sgn = 1.0;
+  if (u > 0.75) {
+    w = u - 1.0;
+  } else if (u > 0.25) {
+    w = u - 0.5;
+    sgn = -1.0;
+  }
+  precise float a = 2.0 * PI * w;
+  return sgn * vec2(cos_accurate(a), sin_accurate(a));
+}
+
 // A microfacet distribution: alphas and which of the two (docs/materials-spec.md 2.1).
 struct MfDist {
   float ax;
@@ -61,37 +75,31 @@ vec2 mf_alphas(float ax, float ay) {
 // D(w) (want_d: the microfacet density, pbrt-v4 TrowbridgeReitzDistribution::D or pbrt-v3
 // BeckmannDistribution::D) or Smith's Lambda(w) (pbrt-v4 TrowbridgeReitzDistribution::Lambda or
 // pbrt-v3 BeckmannDistribution::Lambda, the rational approximation); 0 in the tangent plane.
-// The angle terms (pbrt-v4 Cos2Theta, Tan2Theta, CosPhi, SinPhi) are computed once here.
+// The angle terms come from the components of w (docs/materials-spec.md 2.1 numerics: never
+// 1 - cos^2, which loses the relative accuracy of narrow lobes).
 precise float mf_term(MfDist d, vec3 w, bool want_d) {
-  float cos2 = w.z * w.z;
-  float sin2 = max(0.0, 1.0 - cos2);
-  float tan2 = sin2 / cos2;
-  float st = sqrt(sin2);
-  float cp = st == 0.0 ? 1.0 : clamp(w.x / st, -1.0, 1.0);
-  float sp = st == 0.0 ? 0.0 : clamp(w.y / st, -1.0, 1.0);
+  float z2 = w.z * w.z;
   if (want_d) {
-    if (is_pos_inf(tan2)) return 0.0;
-    float cos4 = cos2 * cos2;
-    if (d.beckmann)
-      return exp(-tan2 * (cp * cp / (d.ax * d.ax) + sp * sp / (d.ay * d.ay))) /
-             (PI * d.ax * d.ay * cos4);
-    if (cos4 < 1e-16) return 0.0;
-    float cx = cp / d.ax, sy = sp / d.ay;
-    float e = tan2 * (cx * cx + sy * sy);
-    return 1.0 / (PI * d.ax * d.ay * cos4 * ((1.0 + e) * (1.0 + e)));
+    float ex = w.x / d.ax, ey = w.y / d.ay;
+    float e2 = ex * ex + ey * ey;
+    if (d.beckmann) {
+      if (z2 == 0.0) return 0.0;
+      return exp(-e2 / z2) / (PI * d.ax * d.ay * z2 * z2);
+    }
+    if (z2 * z2 < 1e-16) return 0.0;
+    float q = z2 + e2;
+    return 1.0 / (PI * d.ax * d.ay * q * q);
   }
+  if (w.z == 0.0) return 0.0;
+  float axx = d.ax * w.x, ayy = d.ay * w.y;
+  float a2 = axx * axx + ayy * ayy;
   if (d.beckmann) {
-    float abs_tan = abs(st / w.z);
-    if (is_pos_inf(abs_tan)) return 0.0;
-    float alpha = sqrt(cp * cp * d.ax * d.ax + sp * sp * d.ay * d.ay);
-    float a = 1.0 / (alpha * abs_tan);
+    float a = abs(w.z) / sqrt(a2);
     if (a >= 1.6) return 0.0;
     return (1.0 - 1.259 * a + 0.396 * a * a) / (3.535 * a + 2.181 * a * a);
   }
-  if (is_pos_inf(tan2)) return 0.0;
-  float cx = cp * d.ax, sy = sp * d.ay;
-  float alpha2 = cx * cx + sy * sy;
-  return (sqrt(1.0 + alpha2 * tan2) - 1.0) / 2.0;
+  float s = a2 / z2;
+  return s / (2.0 * (1.0 + sqrt(1.0 + s)));
 }
 
 // (D(wm), G(wo, wi), PDF(wo, wp)): the density of wm, masking-shadowing 1 / (1 + Lambda(wo) +
@@ -124,37 +132,54 @@ vec3 mf_dgp(MfDist d, vec3 wo, vec3 wi, vec3 wm, vec3 wp) {
 // and the pbrt-v4 lobes expect wm in +z).
 vec3 mf_sample_wm(MfDist d, vec3 w, vec2 u) {
   if (d.beckmann) {
-    precise float log_sample = log(1.0 - u.x);
-    precise float tan2, phi;
+    precise float log_sample = log1p_accurate(-u.x);
+    precise float tan2;
+    precise vec2 cs;  // (cos phi, sin phi)
     if (d.ax == d.ay) {
       tan2 = -d.ax * d.ax * log_sample;
-      phi = u.y * 2.0 * PI;
+      float phi = u.y * 2.0 * PI;
+      cs = vec2(cos_accurate(phi), sin_accurate(phi));
     } else {
-      phi = atan_accurate(d.ay / d.ax * (sin_accurate(2.0 * PI * u.y + 0.5 * PI) / cos_accurate(2.0 * PI * u.y + 0.5 * PI)));
-      if (u.y > 0.5) phi += PI;
-      float s = sin_accurate(phi), c = cos_accurate(phi);
-      tan2 = -log_sample / (c * c / (d.ax * d.ax) + s * s / (d.ay * d.ay));
+      // pbrt-v3's phi = atan(ay/ax tan(2 pi u1 + pi/2)) (+ pi past u1 = 1/2) as a direction
+      precise vec2 t = cos_sin_2pi(u.y);
+      precise vec2 v = vec2(d.ax * t.y, -d.ay * t.x);
+      cs = v / sqrt(v.x * v.x + v.y * v.y);
+      tan2 = -log_sample / (cs.x * cs.x / (d.ax * d.ax) + cs.y * cs.y / (d.ay * d.ay));
     }
     precise float cos_t = 1.0 / sqrt(1.0 + tan2);
-    precise float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
-    precise vec3 wh = vec3(sin_t * cos_accurate(phi), sin_t * sin_accurate(phi), cos_t);
-    return wh;
+    precise float sin_t = sqrt(tan2) * cos_t;
+    return vec3(sin_t * cs.x, sin_t * cs.y, cos_t);
   }
   vec3 wh = safe_normalize(vec3(d.ax * w.x, d.ay * w.y, w.z));
   if (wh.z < 0.0) wh = -wh;
-  vec3 t1 = wh.z < 0.99999 ? safe_normalize(vec3(-wh.y, wh.x, 0.0)) : vec3(1.0, 0.0, 0.0);
+  bool cross_branch = wh.z < 0.99999;
+  vec3 t1 = cross_branch ? safe_normalize(vec3(-wh.y, wh.x, 0.0)) : vec3(1.0, 0.0, 0.0);
   precise vec3 t2 = vec3(wh.y * t1.z - wh.z * t1.y, wh.z * t1.x - wh.x * t1.z,
                          wh.x * t1.y - wh.y * t1.x);
-  // pbrt-v4 SampleUniformDiskPolar
+  // pbrt-v4 SampleUniformDiskPolar, Lerp((1 + wh.z) / 2, h, p.y) and the reprojection, in the
+  // rim-stable arrangement of materials-spec 2.1 numerics (h - py and h + py never cancel)
   precise float r = sqrt(u.x);
-  precise float theta = 2.0 * PI * u.y;
-  precise float px = r * cos_accurate(theta);
-  precise float py = r * sin_accurate(theta);
-  precise float h = sqrt(1.0 - px * px);
+  precise vec2 cs = cos_sin_2pi(u.y);
+  precise float px = r * cs.x;
+  precise float py = r * cs.y;
+  precise float rest = 1.0 - u.x;
+  precise float h = sqrt(rest + u.x * cs.y * cs.y);
+  precise float dm, ep;  // h - py, h + py
+  if (py >= 0.0) {
+    ep = h + py;
+    dm = ep > 0.0 ? rest / ep : 0.0;
+  } else {
+    dm = h - py;
+    ep = rest / dm;
+  }
+  precise float rho2 = wh.x * wh.x + wh.y * wh.y;
   precise float t = (1.0 + wh.z) / 2.0;
-  py = (1.0 - t) * h + t * py;  // pbrt-v4 Lerp(t, h, py)
-  precise float pz = sqrt(max(0.0, 1.0 - (px * px + py * py)));
-  precise vec3 nh = px * t1 + py * t2 + pz * wh;
+  precise float one_minus_t = rho2 / (2.0 * (1.0 + wh.z));
+  precise float py2 = h - t * dm;
+  precise float pz = sqrt(max(0.0, t * dm * (2.0 * one_minus_t * h + t * ep)));
+  precise vec3 nh = px * t1 + py2 * t2 + pz * wh;
+  if (cross_branch && py2 < 0.0)
+    nh.z = t * ep * (wh.z * h - py2) / (wh.z * pz - sqrt(rho2) * py2);
   return safe_normalize(vec3(d.ax * nh.x, d.ay * nh.y, max(1e-6, nh.z)));
 }
 
