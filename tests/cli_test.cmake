@@ -56,7 +56,32 @@ foreach(device lavapipe cpu)
   if(NOT w EQUAL 32 OR NOT spp EQUAL 2 OR f0 STREQUAL "")
     fail("stats on ${device}: width ${w}, spp ${spp}, first feature '${f0}'")
   endif()
+  # The Vulkan render reports its specialised shader build; a diffuse-only scene gets "lean".
+  string(JSON variant ERROR_VARIABLE jerr GET "${json}" shader_variant)
+  if(device STREQUAL "lavapipe" AND NOT variant STREQUAL "lean")
+    fail("stats on lavapipe: shader_variant '${variant}' (${jerr}), expected lean")
+  elseif(device STREQUAL "cpu" AND NOT jerr)
+    fail("stats on cpu: shader_variant '${variant}' reported for the CPU reference")
+  endif()
 endforeach()
+
+# A scene with a conductor needs the full material set: shader_variant "full".
+file(READ ${WORK}/good.pbrt good_text)
+string(REPLACE [=[Material "diffuse" "rgb reflectance" [ 0.5 0.5 0.5 ]]=]
+               [=[Material "conductor" "float roughness" [ 0.2 ]]=] metal_text "${good_text}")
+file(WRITE ${WORK}/metal.pbrt "${metal_text}")
+execute_process(COMMAND ${BASALT} ${WORK}/metal.pbrt --device lavapipe --spp 1 --quiet
+                        -o ${WORK}/metal.exr --stats ${WORK}/stats-metal.json
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  fail("conductor scene on lavapipe: exit ${rc}: ${err}")
+else()
+  file(READ ${WORK}/stats-metal.json json)
+  string(JSON variant ERROR_VARIABLE jerr GET "${json}" shader_variant)
+  if(NOT variant STREQUAL "full")
+    fail("conductor scene: shader_variant '${variant}' (${jerr}), expected full")
+  endif()
+endif()
 
 # Without -o the Film filename is used (relative to the working directory).
 execute_process(COMMAND ${BASALT} ${WORK}/good.pbrt --device cpu --spp 1 --quiet
