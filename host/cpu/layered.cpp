@@ -3,6 +3,8 @@
 // base (pbrt-v4 src/pbrt/bxdfs.h LayeredBxDF, twoSided = true; pbrt-v4 book 14.3), with
 // pbrt-v4's `r()` replaced by the stream of docs/materials-spec.md section 5 (element j =
 // j-th call; in an argument list such as Point2f(r(), r()) the calls are taken left to right).
+// Two deliberate deviations (docs/materials-spec.md 2.3): f's exit MIS weight uses the NEE
+// strategy's own density, and Sample_f rescales its (f, pdf) products by powers of two.
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
@@ -67,6 +69,19 @@ float Tr(float dz, glm::vec3 w) {
 /// pbrt-v4 SampleExponential(u, a) = -ln(1 - u) / a.
 float sample_exponential(float u, float a) { return -std::log(1.0f - u) / a; }
 
+/// \brief Rescales the Sample_f walk's (f, pdf) pair by the same power of two (exact, so f/pdf
+///        is unchanged bit for bit) to pdf in [0.5, 1) when pdf leaves [2^-32, 2^32]: the
+///        products of a long walk over sharp lobes overflow (f = pdf = inf) or underflow while
+///        their ratio is finite (basalt deviation, docs/materials-spec.md 2.3; the pdf of a
+///        layered sample is only proportional).
+void layer_renormalize(glm::vec3& f, float& pdf) {
+  if (!(pdf > 0x1p32f || pdf < 0x1p-32f) || pdf == 0.0f) return;
+  int e = 0;
+  (void)std::frexp(pdf, &e);
+  f = glm::vec3(std::ldexp(f.x, -e), std::ldexp(f.y, -e), std::ldexp(f.z, -e));
+  pdf = std::ldexp(pdf, -e);
+}
+
 /// pbrt-v4 PowerHeuristic(1, f, 1, g).
 float power(float f, float g) { return power_heuristic(f, g); }
 
@@ -104,6 +119,11 @@ std::uint32_t Layered<Bottom>::flags() const {
   return fl;
 }
 
+/// pbrt-v4 LayeredBxDF::f, except for the MIS weight of the exit through the exit interface
+/// after a phase or non-exit sample -w: the other strategy (NEE along wis, sampled from wi)
+/// produces -w with density exit.PDF(wi, -w, !mode, Transmission), which basalt uses where
+/// pbrt-v4 uses exit.PDF(-w, wi, mode, Transmission), the density of wi given -w (biased for
+/// rough coats: docs/materials-spec.md 2.3, pbrt-v4 issue #187).
 template <typename Bottom>
 glm::vec3 Layered<Bottom>::f(glm::vec3 wo, glm::vec3 wi, Mode mode, glm::uvec4 key) const {
   glm::vec3 f(0.0f);
@@ -179,7 +199,9 @@ glm::vec3 Layered<Bottom>::f(glm::vec3 wo, glm::vec3 wi, Mode mode, glm::uvec4 k
               !is_specular(exit.flags())) {
             const glm::vec3 f_exit = exit.f(-w, wi, mode);
             if (nonzero(f_exit)) {
-              const float exit_pdf = exit.pdf(-w, wi, mode, SAMPLE_T);
+              // Density with which the NEE strategy (wis, sampled from wi) produces -w; pbrt-v4
+              // uses PDF(-w, wi, mode), the density of wi given -w (see above f).
+              const float exit_pdf = exit.pdf(wi, -w, flip(mode), SAMPLE_T);
               const float wt2 = power(ps.pdf, exit_pdf);
               f += beta * Tr(zp - exit_z, ps.wi) * f_exit * wt2;
             }
@@ -219,7 +241,8 @@ glm::vec3 Layered<Bottom>::f(glm::vec3 wo, glm::vec3 wi, Mode mode, glm::uvec4 k
           if (nonzero(f_exit)) {
             float wt = 1.0f;
             if (!is_specular(non_exit.flags())) {
-              const float exit_pdf = exit.pdf(-w, wi, mode, SAMPLE_T);
+              // As above: the NEE strategy's density of -w, not pbrt-v4's PDF(-w, wi, mode).
+              const float exit_pdf = exit.pdf(wi, -w, flip(mode), SAMPLE_T);
               wt = power(bs.pdf, exit_pdf);
             }
             f += beta * Tr(thickness, bs.wi) * f_exit * wt;
@@ -256,6 +279,7 @@ BsdfSample Layered<Bottom>::sample(glm::vec3 wo, float uc, glm::vec2 u, Mode mod
   float z = thickness;
   const HGPhase phase{g};
   for (int depth = 0; depth < max_depth; ++depth) {
+    layer_renormalize(f, pdf);
     // Russian roulette.
     const float rr_beta = max_component(f) / pdf;
     if (depth > 3 && rr_beta < 0.25f) {
@@ -302,6 +326,7 @@ BsdfSample Layered<Bottom>::sample(glm::vec3 wo, float uc, glm::vec2 u, Mode mod
       std::uint32_t fl = same_hemisphere(wo, w) ? gpu::BSDF_REFLECTION : gpu::BSDF_TRANSMISSION;
       fl |= specular_path ? gpu::BSDF_SPECULAR : gpu::BSDF_GLOSSY;
       if (flip_wi) w = -w;
+      layer_renormalize(f, pdf);
       BsdfSample out;
       out.f = f;
       out.wi = w;

@@ -4,7 +4,9 @@
 // Henyey-Greenstein medium between them (docs/materials-spec.md section 2.3, LAYERED_*). No
 // recursion: the two interfaces are plain functions of the lobe's parameters. pbrt-v4's r() is
 // the stream of docs/materials-spec.md section 5 (element j = j-th call; calls in argument
-// lists are taken left to right). Needs bindings.glsl and rng.glsl.
+// lists are taken left to right). Two deliberate deviations (docs/materials-spec.md 2.3): f's
+// exit MIS weight uses the NEE strategy's own density, and Sample_f rescales its (f, pdf)
+// products by powers of two. Needs bindings.glsl and rng.glsl.
 #ifndef BASALT_LAYERED_GLSL
 #define BASALT_LAYERED_GLSL
 
@@ -219,15 +221,20 @@ vec3 layered_f(Lobe L, vec3 wo, vec3 wi, uvec4 key) {
       }
       // The interface events of this step, through one layer_query call site: e = 0, NEE along
       // the presampled wis at the bottom; e = 1, sampling the interface at z (reflection);
-      // e = 2, NEE through the top towards wi along the new w.
+      // e = 2, 3, NEE through the top towards wi along the new w: e = 2, the density with
+      // which the wis strategy produces -w, PDF(wi, -w) in importance mode (MIS weight; pbrt-v4
+      // uses PDF(-w, wi), see docs/materials-spec.md 2.3), e = 3, f(-w, wi).
       bool at_exit = z == exit_z;
       bool stop = false;
-      [[dont_unroll]] for (int e = scattered ? 2 : 0; e < 3; ++e) {
+      float exit_pdf = 0.0;
+      [[dont_unroll]] for (int e = scattered ? 2 : 0; e < 4; ++e) {
         if (e == 0 && (at_exit || bot_spec)) continue;
-        if (e == 2 && !exit_nee) break;
+        if (e >= 2 && !exit_nee) break;
+        if (e == 2 && !exit_mis) continue;
         vec3 ur = e == 1 ? layer_rn(key, j, 3u) : vec3(0.0);
-        BsdfSample t = layer_query(y, e == 2 || (e == 1 && at_exit), -w, e == 0 ? -wis.wi : wi,
-                                   ur.x, ur.yz, e == 1, true, e == 2 ? SAMPLE_T : SAMPLE_R);
+        BsdfSample t = layer_query(y, e >= 2 || (e == 1 && at_exit), e == 2 ? wi : -w,
+                                   e == 0 ? -wis.wi : (e == 2 ? -w : wi), ur.x, ur.yz, e == 1,
+                                   e != 2, e >= 2 ? SAMPLE_T : SAMPLE_R);
         if (e == 0) {
           float wt = 1.0;
           if (!top_spec) wt = layer_power(wis.pdf, t.pdf);
@@ -246,11 +253,13 @@ vec3 layered_f(Lobe L, vec3 wo, vec3 wi, uvec4 key) {
             exit_dz = y.thickness;
             exit_w = t.wi;
           }
+        } else if (e == 2) {
+          exit_pdf = t.pdf;
         } else {
           float f_exit = t.f.x;
           if (f_exit != 0.0) {
             float wt = 1.0;
-            if (exit_mis) wt = layer_power(exit_pdf_s, t.pdf);
+            if (exit_mis) wt = layer_power(exit_pdf_s, exit_pdf);
             f += beta * layer_tr(exit_dz, exit_w) * f_exit * wt;
           }
         }
@@ -259,6 +268,17 @@ vec3 layered_f(Lobe L, vec3 wo, vec3 wi, uvec4 key) {
     }
   }
   return y.n_samples > 0 ? f / float(y.n_samples) : vec3(0.0);  // pbrt-v4: 0 / 0
+}
+
+// Rescales Sample_f's (f, pdf) by one power of two (exact: f / pdf keeps every bit) to pdf in
+// [0.5, 1) when pdf leaves [2^-32, 2^32], so that a long walk over sharp lobes neither
+// overflows (f = pdf = inf) nor underflows (docs/materials-spec.md 2.3; the pdf is proportional).
+void layer_renormalize(inout vec3 f, inout float pdf) {
+  if (!(pdf > 4294967296.0 || pdf < 2.3283064365386963e-10) || pdf == 0.0) return;
+  int e;
+  frexp(pdf, e);
+  f = ldexp(f, ivec3(-e));
+  pdf = ldexp(pdf, -e);
 }
 
 // pbrt-v4 LayeredBxDF::Sample_f (radiance mode): the first interface sample (step -1) uses
@@ -280,6 +300,7 @@ BsdfSample layered_sample(Lobe L, vec3 wo, float uc, vec2 u, uvec4 key) {
   for (int depth = -1; depth < y.max_depth; ++depth) {
     vec3 ur = vec3(uc, u);
     if (depth >= 0) {
+      layer_renormalize(f, pdf);
       precise float rr_beta = max_component(f) / pdf;
       if (depth > 3 && rr_beta < 0.25) {
         float q = max(0.0, 1.0 - rr_beta);
@@ -334,6 +355,7 @@ BsdfSample layered_sample(Lobe L, vec3 wo, float uc, vec2 u, uvec4 key) {
       uint flags = same_hemisphere(wo, w) ? BSDF_REFLECTION : BSDF_TRANSMISSION;
       flags |= specular_path ? BSDF_SPECULAR : BSDF_GLOSSY;
       if (flip_wi) w = -w;
+      layer_renormalize(f, pdf);
       return BsdfSample(f, pdf, w, flags, 1.0, true);
     }
     f *= abs(is.wi.z);

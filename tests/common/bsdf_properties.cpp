@@ -416,12 +416,10 @@ std::vector<gpu::Material> deep_layered() {
 }
 
 // Layered BRDFs are stochastic: compare the means over many streams of f(wo, wi) and
-// f(wi, wo); they must agree within 4 combined standard errors plus 1%.
-// DISABLED: open finding of issue 3 (both renderers agree to 1e-7 on these means, so it is
-// the layered estimator as specified, not one implementation): rough coated diffuse f(wo, wi)
-// and f(wi, wo) means differ by ~5%, and over a scattering medium the sampled albedo differs
-// from the eval albedo by ~12%. Kept disabled (reported by gtest) until it is explained.
-TEST_P(BsdfProperties, DISABLED_LayeredReciprocityInExpectation) {
+// f(wi, wo); they must agree within 4 combined standard errors plus 1%. (Issue 3: pbrt-v4's
+// f weights its exit strategies with PDF(-w, wi) instead of PDF(wi, -w) and was 5% off here;
+// docs/materials-spec.md 2.3. Ground truth: tests/cpu/layered_reference_test.cpp.)
+TEST_P(BsdfProperties, LayeredReciprocityInExpectation) {
   constexpr int kStreams = 4000;
   const std::vector<std::pair<glm::vec3, glm::vec3>> pairs = {
       {dir(0.9, 0.2), dir(0.4, 2.5)}, {dir(0.3, 1.0), dir(0.7, 1.3)},
@@ -470,12 +468,11 @@ TEST_P(BsdfProperties, DISABLED_LayeredReciprocityInExpectation) {
 
 // Layered samples: the sampling estimate of the albedo (mean of f |cos| / pdf of the
 // proportional samples) agrees with the eval estimate (uniform wi over the sphere, mean of
-// f |cos| 4 pi) within 4 combined standard errors plus 2%.
-// DISABLED: open finding of issue 3 (both renderers agree to 1e-7 on these means, so it is
-// the layered estimator as specified, not one implementation): rough coated diffuse f(wo, wi)
-// and f(wi, wo) means differ by ~5%, and over a scattering medium the sampled albedo differs
-// from the eval albedo by ~12%. Kept disabled (reported by gtest) until it is explained.
-TEST_P(BsdfProperties, DISABLED_SampleAgreesWithEvalInExpectation) {
+// f |cos| 4 pi) within 4 combined standard errors plus 2%. Specular samples (a smooth coat's
+// Fresnel reflection, purely specular paths) are left out of the sampling estimate: they are
+// deltas, which f does not hold (over the scattering medium they are the ~12% that this test
+// once reported as a bias; issue 3).
+TEST_P(BsdfProperties, SampleAgreesWithEvalInExpectation) {
   constexpr int kN = 40000;
   const std::vector<gpu::Material> layered = deep_layered();
   const SceneTables t = make_tables(layered);
@@ -499,7 +496,10 @@ TEST_P(BsdfProperties, DISABLED_SampleAgreesWithEvalInExpectation) {
   const std::vector<Result> rs = run(GetParam(), t, qs);
   for (std::size_t j = 0; j < mats.size(); ++j) {
     const std::size_t base = j * 2 * kN;
-    const Estimate s = albedo_estimate(rs, base, kN, false);
+    std::vector<Result> nonspecular(rs.begin() + base, rs.begin() + base + kN);
+    for (Result& r : nonspecular)
+      if (r.specular()) r.sflags = 0;  // no sample: weight 0
+    const Estimate s = albedo_estimate(nonspecular, 0, kN, false);
     glm::dvec3 sum(0), sum2(0);
     for (int i = 0; i < kN; ++i) {
       const Result& r = rs[base + kN + i];
@@ -515,6 +515,55 @@ TEST_P(BsdfProperties, DISABLED_SampleAgreesWithEvalInExpectation) {
           << describe(layered[mats[j]]) << " channel " << c << ": sampling " << s.mean[c]
           << " +- " << s.se[c] << ", eval " << mean[c] << " +- " << se[c];
   }
+}
+
+// Layered samples stay finite (issue 3): over sharp rough lobes (alpha 1e-3, the roughest
+// "smooth" limit) the walk's f and pdf are products of ~1e5-sized factors and overflowed to
+// inf together over a few bounces; the walk rescales them by powers of two
+// (docs/materials-spec.md 2.3). Every output is finite, samples are many and their weights
+// f |cos| / pdf are finite.
+TEST_P(BsdfProperties, LayeredSamplesFinite) {
+  const std::vector<gpu::Material> mats = {
+      coated_conductor(1e-3f, 1e-3f, 0.0f, 1.5f, 0.0f, glm::vec3(0.0f), 1e-3f, 1e-3f,
+                       {0.2f, 0.9f, 1.1f}, {3.9f, 2.4f, 2.2f}, 100, 1),
+      coated_conductor(1e-3f, 2e-3f, 1e-4f, 1.0001f, 0.9f, glm::vec3(0.99f), 1e-3f, 1e-3f,
+                       {1.0f, 1.0f, 1.0f}, {9.0f, 9.0f, 9.0f}, 100, 1),
+      coated_diffuse(glm::vec3(1.0f), 1e-3f, 1e-3f, 1e-4f, 4.0f, glm::vec3(0.99f), -0.9f, 100, 1)};
+  const SceneTables t = make_tables(mats);
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> U(0.0f, 1.0f);
+  std::vector<Query> qs;
+  for (std::uint32_t m = 0; m < mats.size(); ++m)
+    for (int i = 0; i < 20000; ++i) {
+      Query q;
+      q.material = m;
+      q.wo = i % 2 ? dir(hard_cos(rng), 2 * kPi * U(rng)) : uniform_dir(rng);
+      q.wi = uniform_dir(rng);
+      q.ng = glm::vec3(0, 0, q.wo.z < 0 ? -1.0f : 1.0f);
+      q.u = glm::vec3(U(rng), U(rng), U(rng));
+      q.px = std::uint32_t(i);
+      q.py = 300u + m;
+      qs.push_back(q);
+    }
+  const std::vector<Result> rs = run(GetParam(), t, qs);
+  int bad = 0;
+  std::vector<int> samples(mats.size(), 0);
+  for (std::size_t i = 0; i < qs.size(); ++i) {
+    const Result& r = rs[i];
+    std::string why;
+    if (!sane(r, &why) && ++bad <= 5)
+      ADD_FAILURE() << why << "\n  " << describe(mats[qs[i].material]) << "\n  "
+                    << describe(qs[i]) << "\n  " << describe(r);
+    if (!r.sampled()) continue;
+    ++samples[qs[i].material];
+    const glm::dvec3 w = glm::dvec3(r.sf) * std::fabs(double(r.swi.z)) / double(r.spdf);
+    if (!(std::isfinite(w.x) && std::isfinite(w.y) && std::isfinite(w.z)) && ++bad <= 5)
+      ADD_FAILURE() << "sample weight " << w.x << " " << w.y << " " << w.z << "\n  "
+                    << describe(mats[qs[i].material]) << "\n  " << describe(qs[i]) << "\n  "
+                    << describe(r);
+  }
+  EXPECT_EQ(bad, 0);
+  for (std::size_t m = 0; m < mats.size(); ++m) EXPECT_GT(samples[m], 5000) << m;
 }
 
 // ---- 6. analytic values -----------------------------------------------------------------------
