@@ -189,6 +189,10 @@ void add_material_lobes(Bsdf& b, const gpu::Material& m, const SurfacePoint& sp,
       l.bx = alpha(SLOT_CC_UROUGH);
       l.by = alpha(SLOT_CC_VROUGH);
       conductor_eta_k(m, sp, SLOT_CC_ETA, SLOT_CC_K, SLOT_CC_REFLECTANCE, &l.c0, &l.c2);
+      // pbrt-v4 CoatedConductorMaterial: the conductor's eta and k relative to the coat.
+      if (l.eta == 0.0f) l.eta = 1.0f;
+      l.c0 /= l.eta;
+      l.c2 /= l.eta;
       l.beckmann = beck;
       l.n0 = m.aux0;
       l.n1 = std::max(m.aux1, 1u);

@@ -260,6 +260,10 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
           L.p1 = vec4(slot_value(m, SLOT_CC_ALBEDO, sp).xyz, slot_value(m, SLOT_CC_G, sp).x);
           vec3 eta, k;
           conductor_eta_k(m, SLOT_CC_ETA, SLOT_CC_K, SLOT_CC_REFLECTANCE, sp, eta, k);
+          // pbrt-v4 CoatedConductorMaterial: conductor eta and k relative to the coat's eta
+          if (L.p0.z == 0.0) L.p0.z = 1.0;
+          eta /= L.p0.z;
+          k /= L.p0.z;
           vec2 a = mf_alphas(slot_alpha(m, SLOT_CC_UROUGH, sp), slot_alpha(m, SLOT_CC_VROUGH, sp));
           L.p2 = vec4(eta, a.x);
           L.p3 = vec4(k, a.y);

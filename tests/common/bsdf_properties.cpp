@@ -766,6 +766,44 @@ TEST_P(BsdfProperties, ConductorFresnel) {
   }
 }
 
+// pbrt-v4 CoatedConductorMaterial divides the conductor's eta and k by the coat's eta: a
+// conductor with eta = the coat's and k = 0 is then index-matched to the coat (Fresnel 0), so
+// a smooth coat over it reflects nothing off the base: f is 0 away from the coat's mirror
+// direction (the coat's own reflection is a delta), and every sample is that reflection.
+TEST_P(BsdfProperties, CoatedConductorEtaRelativeToCoat) {
+  const SceneTables t = make_tables({coated_conductor(0.0f, 0.0f, 0.01f, 1.5f, 0.0f,
+                                                      glm::vec3(0.0f), 0.3f, 0.3f,
+                                                      glm::vec3(1.5f), glm::vec3(0.0f), 10, 1)});
+  std::mt19937 rng(5);
+  std::vector<Query> qs;
+  for (int i = 0; i < 400; ++i) {
+    Query q;
+    q.wo = uniform_dir(rng);
+    q.wi = uniform_dir(rng);
+    q.wo.z = std::fabs(q.wo.z) + 0.05f;
+    q.wi.z = std::fabs(q.wi.z) + 0.05f;
+    q.wo = glm::normalize(q.wo);
+    q.wi = glm::normalize(q.wi);
+    q.u = glm::vec3(std::uniform_real_distribution<float>(0.0f, 1.0f)(rng), 0.3f, 0.6f);
+    q.px = std::uint32_t(i);
+    qs.push_back(q);
+  }
+  const std::vector<Result> rs = run(GetParam(), t, qs);
+  int sampled = 0;
+  for (std::size_t i = 0; i < qs.size(); ++i) {
+    // 0 up to the rounding of the complex Fresnel at relative eta 1 (~1e-30; without the
+    // division f is ~1e-2).
+    EXPECT_LT(std::fmax(rs[i].f.x, std::fmax(rs[i].f.y, rs[i].f.z)), 1e-6f)
+        << describe(qs[i]) << "\n  " << describe(rs[i]);
+    if (!rs[i].sampled()) continue;
+    ++sampled;
+    EXPECT_TRUE(rs[i].sflags & gpu::BSDF_SPECULAR) << describe(qs[i]) << "\n  " << describe(rs[i]);
+    EXPECT_TRUE(close_direction(rs[i].swi, glm::vec3(-qs[i].wo.x, -qs[i].wo.y, qs[i].wo.z)))
+        << describe(qs[i]) << "\n  " << describe(rs[i]);
+  }
+  EXPECT_GT(sampled, 0) << "no coat reflections sampled";
+}
+
 // ---- 7. light-leak rule (materials-spec 1.2, pbrt 2nd ed. Fig. 9.2) ------------------------
 
 // With a tilted geometric normal: (a) an opaque BRDF gives no light from the geometric back
