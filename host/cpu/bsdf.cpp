@@ -379,8 +379,7 @@ BsdfSample bsdf_sample(const Bsdf& b, glm::vec3 wo, glm::vec3 u, glm::vec3 ng,
   const float uc = std::fmin(u.x * n - float(k), ONE_MINUS_EPSILON);
   const Lobe& lobe = b.lobes[k];
   BsdfSample s = lobe_sample(b, lobe, wo, uc, glm::vec2(u.y, u.z), stream);
-  // pbrt-v3 BSDF::Sample_f: none if the sampled lobe's own pdf is 0 (subnormal counts as 0).
-  if (s.flags == 0 || !(s.pdf >= FLT_MIN)) return BsdfSample{};
+  if (s.flags == 0) return BsdfSample{};
   // Light-leak rule (1.2): the sample's kind must match the geometric side of wi.
   if (((s.flags & gpu::BSDF_REFLECTION) != 0) != geo_reflect(wo, s.wi, ng)) return BsdfSample{};
   if (b.n == 1 || bxdf::is_specular(s.flags) || s.pdf_is_proportional) {
@@ -389,6 +388,9 @@ BsdfSample bsdf_sample(const Bsdf& b, glm::vec3 wo, glm::vec3 u, glm::vec3 ng,
     s.f *= lobe.weight;
     s.pdf /= n;
   } else {
+    // pbrt-v3 BSDF::Sample_f's `*pdf == 0` test on the chosen lobe's pdf at wi (subnormal
+    // counts as 0), even where other lobes are non-zero there.
+    if (!(lobe_pdf(b, lobe, wo, s.wi, stream) >= FLT_MIN)) return BsdfSample{};
     s.f = bsdf_eval(b, wo, s.wi, ng, stream);
     s.pdf = bsdf_pdf(b, wo, s.wi, ng, stream);
   }

@@ -115,7 +115,9 @@ struct Microfacet {
     const float e2 = ex * ex + ey * ey;  // tan^2 theta (cos^2 phi / ax^2 + sin^2 phi / ay^2) z2
     if (beckmann) {
       if (z2 == 0.0f) return 0.0f;
-      return std::exp(-e2 / z2) / (PI * ax * ay * z2 * z2);
+      const float arg = e2 / z2;
+      if (arg > 87.0f) return 0.0f;  // exp(-arg) would be near or below FLT_MIN
+      return std::exp(-arg) / (PI * ax * ay * z2 * z2);
     }
     if (z2 * z2 < 1e-16f) return 0.0f;
     const float q = z2 + e2;  // cos^2 theta (1 + e)

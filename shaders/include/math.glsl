@@ -39,14 +39,4 @@ float copysign_pos(float m, float s) {
   return uintBitsToFloat(floatBitsToUint(m) | (floatBitsToUint(s) & 0x80000000u));
 }
 
-// ln(1 + x) for x > -1, accurate near x = 0 as well (the GPU's log is only accurate in
-// absolute terms there): 2 atanh(s), s = x / (2 + x), by its series for |x| < 1/8 (s^2 <= 0.0035,
-// five terms reach float precision); log(1 + x) otherwise. docs/materials-spec.md 2.1 numerics.
-precise float log1p_accurate(float x) {
-  if (abs(x) >= 0.125) return log(1.0 + x);
-  precise float s = x / (2.0 + x);
-  precise float s2 = s * s;
-  return 2.0 * s * (1.0 + s2 * (1.0 / 3.0 + s2 * (1.0 / 5.0 + s2 * (1.0 / 7.0 + s2 / 9.0))));
-}
-
 #endif

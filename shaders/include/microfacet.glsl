@@ -34,7 +34,7 @@ precise float roughness_to_alpha(float r, uint flags) {
   uint remap = flags & MATFLAG_REMAP_MASK;
   if (remap == MATFLAG_REMAP_SQRT) return sqrt(r);
   if (remap == MATFLAG_REMAP_V3) {
-    float x = log(max(r, 1e-3));
+    float x = log_accurate(max(r, 1e-3));
     return 1.62142 + 0.819955 * x + 0.1734 * x * x + 0.0171201 * x * x * x +
            0.000640711 * x * x * x * x;
   }
@@ -84,7 +84,9 @@ precise float mf_term(MfDist d, vec3 w, bool want_d) {
     float e2 = ex * ex + ey * ey;
     if (d.beckmann) {
       if (z2 == 0.0) return 0.0;
-      return exp(-e2 / z2) / (PI * d.ax * d.ay * z2 * z2);
+      float arg = e2 / z2;
+      if (arg > 87.0) return 0.0;  // exp(-arg) would be near or below FLT_MIN
+      return exp_accurate(-arg) / (PI * d.ax * d.ay * z2 * z2);
     }
     if (z2 * z2 < 1e-16) return 0.0;
     float q = z2 + e2;

@@ -111,4 +111,53 @@ precise float cos_accurate(float x) {
   return sgn * y;
 }
 
+// Cephes expf (S. L. Moshier, expf.c): x = n ln2 + r with ln2 in two parts (C1 exact in few
+// bits), the single-precision minimax polynomial for e^r, scaled by 2^n. lavapipe's exp goes
+// through exp2(x log2 e), whose rounded product loses relative accuracy as |x| grows (1e-4 at
+// x ~ -16, where narrow Beckmann lobes evaluate it). 0 below -87.33654 (the result would be
+// subnormal, which both renderers count as 0), +inf above 88.72284.
+precise float exp_accurate(float x) {
+  if (x < -87.33654) return 0.0;
+  if (x > 88.72284) return 1.0 / 0.0;
+  float n = floor(1.44269504088896341 * x + 0.5);
+  precise float r = (x - n * 0.693359375) - n * -2.12194440e-4;
+  precise float y = ((((((1.9875691500e-4 * r + 1.3981999507e-3) * r + 8.3334519073e-3) * r +
+                        4.1665795894e-2) * r + 1.6666665459e-1) * r + 5.0000001201e-1) * r * r) +
+                    r + 1.0;
+  return ldexp(y, int(n));
+}
+
+// Cephes logf (S. L. Moshier, logf.c): x = m 2^e with m in [sqrt(1/2), sqrt(2)), ln(m) by the
+// single-precision minimax polynomial in m - 1, e ln2 added in two parts. lavapipe's log loses
+// relative accuracy (pbrt-v3's roughness polynomial, whose terms cancel 400:1 near roughness
+// 1e-3, turns 1e-6 in ln r into 1e-4 in a Beckmann D). For x > 0 finite.
+precise float log_accurate(float x) {
+  int e;
+  precise float m = frexp(x, e);
+  if (m < 0.707106781186547524) {
+    e -= 1;
+    m = m + m - 1.0;
+  } else {
+    m = m - 1.0;
+  }
+  precise float z = m * m;
+  precise float y = ((((((((7.0376836292e-2 * m - 1.1514610310e-1) * m + 1.1676998740e-1) * m -
+                         1.2420140846e-1) * m + 1.4249322787e-1) * m - 1.6668057665e-1) * m +
+                      2.0000714765e-1) * m - 2.4999993993e-1) * m + 3.3333331174e-1) * m * z;
+  float fe = float(e);
+  y += -2.12194440e-4 * fe;
+  y += -0.5 * z;
+  return (m + y) + 0.693359375 * fe;
+}
+
+// ln(1 + x) for x > -1, accurate near x = 0 as well (the GPU's log is only accurate in
+// absolute terms there): 2 atanh(s), s = x / (2 + x), by its series for |x| < 1/8 (s^2 <= 0.0035,
+// five terms reach float precision); log(1 + x) otherwise. docs/materials-spec.md 2.1 numerics.
+precise float log1p_accurate(float x) {
+  if (abs(x) >= 0.125) return log_accurate(1.0 + x);
+  precise float s = x / (2.0 + x);
+  precise float s2 = s * s;
+  return 2.0 * s * (1.0 + s2 * (1.0 / 3.0 + s2 * (1.0 / 5.0 + s2 * (1.0 / 7.0 + s2 / 9.0))));
+}
+
 #endif
