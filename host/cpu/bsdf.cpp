@@ -92,6 +92,23 @@ void add_material_lobes(Bsdf& b, const gpu::Material& m, const SurfacePoint& sp,
   const bool beck = (m.flags & MATFLAG_BECKMANN) != 0;
   auto val = [&](std::uint32_t s) { return slot_value(m, s, sp); };
   auto alpha = [&](std::uint32_t s) { return roughness_to_alpha(val(s).x, m.flags); };
+  // A layered lobe's coat and medium from the material's slots (both coated materials).
+  auto layered = [&](std::uint32_t tag, std::uint32_t urough, std::uint32_t vrough,
+                     std::uint32_t thickness, std::uint32_t eta, std::uint32_t albedo,
+                     std::uint32_t g) {
+    Lobe l;
+    l.tag = tag;
+    l.ax = alpha(urough);
+    l.ay = alpha(vrough);
+    l.s0 = val(thickness).x;
+    l.eta = val(eta).x;
+    l.c1 = val(albedo);
+    l.s1 = val(g).x;
+    l.beckmann = beck;
+    l.n0 = m.aux0;
+    l.n1 = std::max(m.aux1, 1u);
+    return l;
+  };
   switch (m.type) {
     case MATERIAL_DIFFUSE:
       add_lobe(b, lambert(LOBE_LAMBERT_R, val(SLOT_DIFFUSE_REFLECTANCE)), scale);
@@ -162,30 +179,15 @@ void add_material_lobes(Bsdf& b, const gpu::Material& m, const SurfacePoint& sp,
       break;
     }
     case MATERIAL_COATED_DIFFUSE: {
-      Lobe l;
-      l.tag = LOBE_LAYERED_DIFFUSE;
+      Lobe l = layered(LOBE_LAYERED_DIFFUSE, SLOT_CD_UROUGH, SLOT_CD_VROUGH, SLOT_CD_THICKNESS,
+                       SLOT_CD_ETA, SLOT_CD_ALBEDO, SLOT_CD_G);
       l.c0 = val(SLOT_CD_REFLECTANCE);
-      l.ax = alpha(SLOT_CD_UROUGH);
-      l.ay = alpha(SLOT_CD_VROUGH);
-      l.s0 = val(SLOT_CD_THICKNESS).x;
-      l.eta = val(SLOT_CD_ETA).x;
-      l.c1 = val(SLOT_CD_ALBEDO);
-      l.s1 = val(SLOT_CD_G).x;
-      l.beckmann = beck;
-      l.n0 = m.aux0;
-      l.n1 = std::max(m.aux1, 1u);
       add_lobe(b, l, scale);
       break;
     }
     case MATERIAL_COATED_CONDUCTOR: {
-      Lobe l;
-      l.tag = LOBE_LAYERED_CONDUCTOR;
-      l.ax = alpha(SLOT_CC_IF_UROUGH);
-      l.ay = alpha(SLOT_CC_IF_VROUGH);
-      l.s0 = val(SLOT_CC_THICKNESS).x;
-      l.eta = val(SLOT_CC_IF_ETA).x;
-      l.s1 = val(SLOT_CC_G).x;
-      l.c1 = val(SLOT_CC_ALBEDO);
+      Lobe l = layered(LOBE_LAYERED_CONDUCTOR, SLOT_CC_IF_UROUGH, SLOT_CC_IF_VROUGH,
+                       SLOT_CC_THICKNESS, SLOT_CC_IF_ETA, SLOT_CC_ALBEDO, SLOT_CC_G);
       l.bx = alpha(SLOT_CC_UROUGH);
       l.by = alpha(SLOT_CC_VROUGH);
       conductor_eta_k(m, sp, SLOT_CC_ETA, SLOT_CC_K, SLOT_CC_REFLECTANCE, &l.c0, &l.c2);
@@ -193,9 +195,6 @@ void add_material_lobes(Bsdf& b, const gpu::Material& m, const SurfacePoint& sp,
       if (l.eta == 0.0f) l.eta = 1.0f;
       l.c0 /= l.eta;
       l.c2 /= l.eta;
-      l.beckmann = beck;
-      l.n0 = m.aux0;
-      l.n1 = std::max(m.aux1, 1u);
       add_lobe(b, l, scale);
       break;
     }

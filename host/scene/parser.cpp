@@ -21,6 +21,15 @@ namespace basalt {
 
 namespace {
 
+/// An integer parameter that must be positive: its value (or \p def when absent), else an
+/// error located at the parameter (or at \p loc).
+int positive_int(const ParamSet& ps, const std::string& name, int def, const SourceLoc& loc) {
+  const int v = ps.get_int(name, def);
+  if (v <= 0)
+    throw SceneError(ps.loc_of(name, loc), name + " must be positive, got " + std::to_string(v));
+  return v;
+}
+
 namespace fs = std::filesystem;
 
 constexpr int kMaxIncludeDepth = 64;
@@ -517,14 +526,8 @@ void Parser::film(Tokenizer& tok, const Token& d) {
     throw SceneError(d.loc, "film '" + type + "' is not supported (basalt writes Film 'rgb')");
   Film f;
   f.loc = d.loc;
-  f.xres = ps.get_int("xresolution", 1280);
-  if (f.xres <= 0)
-    throw SceneError(ps.loc_of("xresolution", d.loc),
-                     "xresolution must be positive, got " + std::to_string(f.xres));
-  f.yres = ps.get_int("yresolution", 720);
-  if (f.yres <= 0)
-    throw SceneError(ps.loc_of("yresolution", d.loc),
-                     "yresolution must be positive, got " + std::to_string(f.yres));
+  f.xres = positive_int(ps, "xresolution", 1280, d.loc);
+  f.yres = positive_int(ps, "yresolution", 720, d.loc);
   f.filename = ps.get_string("filename", "pbrt.exr");
   ps.report_unused("Film '" + type + "'", scene_.warnings);
   scene_.film = f;
@@ -539,16 +542,9 @@ void Parser::sampler(Tokenizer& tok, const Token& d) {
   Sampler s;
   if (type == "stratified") {
     // pbrt-v4 StratifiedSampler::Create: xsamples x ysamples per pixel, 4 x 4 by default.
-    int xs = ps.get_int("xsamples", 4), ys = ps.get_int("ysamples", 4);
-    if (xs <= 0 || ys <= 0)
-      throw SceneError(ps.loc_of(xs <= 0 ? "xsamples" : "ysamples", d.loc),
-                       "xsamples and ysamples must be positive");
-    s.spp = xs * ys;
+    s.spp = positive_int(ps, "xsamples", 4, d.loc) * positive_int(ps, "ysamples", 4, d.loc);
   } else {
-    s.spp = ps.get_int("pixelsamples", 16);
-    if (s.spp <= 0)
-      throw SceneError(ps.loc_of("pixelsamples", d.loc),
-                       "pixelsamples must be positive, got " + std::to_string(s.spp));
+    s.spp = positive_int(ps, "pixelsamples", 16, d.loc);
   }
   sampler_seed_given_ = ps.find("seed") != nullptr;
   s.seed = ps.get_int("seed", 0);

@@ -15,36 +15,19 @@ layout(constant_id = 0) const uint FEATURES = 0xffffffffu;
 layout(std430, set = 0, binding = BINDING_GLOBALS) restrict readonly buffer GlobalsBuffer {
   Globals globals;
 };
-layout(std430, set = 0, binding = BINDING_BVH_NODES) restrict readonly buffer BvhNodeBuffer {
-  BvhNode bvh_nodes[];
-};
-layout(std430, set = 0, binding = BINDING_PRIM_REFS) restrict readonly buffer PrimRefBuffer {
-  uint prim_refs[];
-};
-layout(std430, set = 0, binding = BINDING_TRIANGLES) restrict readonly buffer TriangleBuffer {
-  Triangle triangles[];
-};
-layout(std430, set = 0, binding = BINDING_VERTICES) restrict readonly buffer VertexBuffer {
-  Vertex vertices[];
-};
-layout(std430, set = 0, binding = BINDING_MESHES) restrict readonly buffer MeshBuffer {
-  Mesh meshes[];
-};
-layout(std430, set = 0, binding = BINDING_SPHERES) restrict readonly buffer SphereBuffer {
-  Sphere spheres[];
-};
-layout(std430, set = 0, binding = BINDING_MATERIALS) restrict readonly buffer MaterialBuffer {
-  Material materials[];
-};
-layout(std430, set = 0, binding = BINDING_LIGHTS) restrict readonly buffer LightBuffer {
-  Light lights[];
-};
-layout(std430, set = 0, binding = BINDING_LIGHT_CDF) restrict readonly buffer LightCdfBuffer {
-  float light_cdf[];
-};
-layout(std430, set = 0, binding = BINDING_FILTER_CDF) restrict readonly buffer FilterCdfBuffer {
-  float filter_cdf[];
-};
+// A read-only scene table: binding BINDING_<b>, block <Block>, array <name> of <T>.
+#define BASALT_TABLE(b, Block, T, name) \
+  layout(std430, set = 0, binding = BINDING_##b) restrict readonly buffer Block { T name[]; }
+BASALT_TABLE(BVH_NODES, BvhNodeBuffer, BvhNode, bvh_nodes);
+BASALT_TABLE(PRIM_REFS, PrimRefBuffer, uint, prim_refs);
+BASALT_TABLE(TRIANGLES, TriangleBuffer, Triangle, triangles);
+BASALT_TABLE(VERTICES, VertexBuffer, Vertex, vertices);
+BASALT_TABLE(MESHES, MeshBuffer, Mesh, meshes);
+BASALT_TABLE(SPHERES, SphereBuffer, Sphere, spheres);
+BASALT_TABLE(MATERIALS, MaterialBuffer, Material, materials);
+BASALT_TABLE(LIGHTS, LightBuffer, Light, lights);
+BASALT_TABLE(LIGHT_CDF, LightCdfBuffer, float, light_cdf);
+BASALT_TABLE(FILTER_CDF, FilterCdfBuffer, float, filter_cdf);
 layout(std430, set = 0, binding = BINDING_ACCUM) restrict buffer AccumBuffer {
   vec4 accum[];  // per pixel: running sum of (L, weight)
 };
@@ -52,8 +35,7 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) restrict buffer CounterBuffe
   uint counters[];  // [0]: rays traced in this pass (one atomicAdd per invocation)
 };
 
-layout(std430, set = 0, binding = BINDING_MEASURED) restrict readonly buffer MeasuredBuffer {
-  float measured[];  // MERL half-angle tables, rgb interleaved (MATERIAL_MEASURED aux0)
-};
+// MERL half-angle tables, rgb interleaved (MATERIAL_MEASURED aux0).
+BASALT_TABLE(MEASURED, MeasuredBuffer, float, measured);
 
 #endif

@@ -19,6 +19,14 @@ std::vector<std::string> scene_files() {
   return files;
 }
 
+/// gtest name of a scene file's test: the file name without ".pbrt", non-alphanumerics as '_'.
+std::string test_name(const ::testing::TestParamInfo<std::string>& info) {
+  std::string n = info.param.substr(0, info.param.size() - 5);
+  for (char& c : n)
+    if (!std::isalnum((unsigned char)c)) c = '_';
+  return n;
+}
+
 /// On failure, leaves both images and their difference in the build tree for inspection.
 void dump(const std::string& name, const SceneTables& t, const std::vector<glm::vec3>& cpu,
           const std::vector<glm::vec3>& gpu) {
@@ -51,12 +59,7 @@ class Conformance : public ::testing::TestWithParam<std::string> {};
 TEST_P(Conformance, CpuMatchesGpu) { check_scene(GetParam(), 2); }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, Conformance, ::testing::ValuesIn(scene_files()),
-                         [](const auto& info) {
-                           std::string n = info.param.substr(0, info.param.size() - 5);
-                           for (char& c : n)
-                             if (!std::isalnum((unsigned char)c)) c = '_';
-                           return n;
-                         });
+                         test_name);
 
 class ConformanceFullSpp : public ::testing::TestWithParam<std::string> {};
 
@@ -70,12 +73,7 @@ TEST_P(ConformanceFullSpp, SlowCpuMatchesGpuAtSceneSpp) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, ConformanceFullSpp, ::testing::ValuesIn(scene_files()),
-                         [](const auto& info) {
-                           std::string n = info.param.substr(0, info.param.size() - 5);
-                           for (char& c : n)
-                             if (!std::isalnum((unsigned char)c)) c = '_';
-                           return n;
-                         });
+                         test_name);
 
 }  // namespace
 }  // namespace basalt::test
