@@ -483,7 +483,11 @@ std::vector<std::string> feature_names(std::uint32_t features) {
       "material_mix_weighted",
       "material_interface",
       "material_mirror",
-      "material_metal"};
+      "material_metal",
+      "textures",
+      "texture_noise",
+      "texture_image",
+      "light_infinite_image"};
   std::vector<std::string> names;
   for (std::uint32_t bit = 0; bit < gpu::FEATURE_COUNT; ++bit)
     if (features & (1u << bit)) names.emplace_back(kNames[bit]);

@@ -24,7 +24,12 @@ struct SceneTables {
   std::vector<float> filter_cdf;  // 2 (N + 1) entries for the gaussian filter, else empty
   std::vector<float> measured;    // measured BRDF tables (MATERIAL_MEASURED aux0 offsets), rgb
                                   // interleaved, scale factors applied; may be empty
+  std::vector<gpu::Texture> textures;     // texture programs (docs/textures-spec.md 2)
+  std::vector<gpu::MipLevel> mip_levels;  // every level of every image (finest first)
+  std::vector<float> texels;              // image levels, linear, channel-interleaved
+  std::vector<float> tex_data;            // shared tables (docs/textures-spec.md 5)
   std::uint32_t features = 0;     // FEATURE_* bits
+  std::uint32_t features2 = 0;    // FEATURE2_* bits
 
   std::uint32_t width() const { return globals.image.x; }
   std::uint32_t height() const { return globals.image.y; }

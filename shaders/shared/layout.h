@@ -37,7 +37,13 @@ using mat4 = glm::mat4;
 #define BINDING_ACCUM 11
 #define BINDING_COUNTERS 12  // uint counters[]: [0] rays traced, [1] non-finite samples dropped
 #define BINDING_MEASURED 13  // float measured[]: tabulated BRDFs (MERL half-angle, rgb interleaved)
-#define BINDING_COUNT 14
+#define BINDING_TEXTURES 14  // Texture textures[]: texture programs (docs/textures-spec.md 2)
+#define BINDING_MIP_LEVELS 15  // MipLevel mip_levels[]: one entry per level of every image
+#define BINDING_TEXELS 16    // float texels[]: image levels, channel-interleaved, linear
+#define BINDING_TEX_DATA 17  // float tex_data[]: shared tables (docs/textures-spec.md 5):
+                             //   noise permutation, EWA weights, Shirley gradients,
+                             //   environment-map sampling distributions
+#define BINDING_COUNT 18
 
 // Probe shaders (tests) add their input and output tables to the same set, well above the
 // scene bindings so that later issues can append scene tables without moving them.
@@ -76,7 +82,20 @@ BASALT_CONST uint FEATURE_MAT_MIX_WEIGHTED = 1u << 24;  // pbrt-v2/v3 weighted m
 BASALT_CONST uint FEATURE_MAT_INTERFACE = 1u << 25;
 BASALT_CONST uint FEATURE_MAT_MIRROR = 1u << 26;
 BASALT_CONST uint FEATURE_MAT_METAL = 1u << 27;
-BASALT_CONST uint FEATURE_COUNT = 28u;
+// Textures (issue 8): one bit per texture family a material of the scene reaches, so that a
+// scene without textures, or with checkerboards only, does not pay for the rest.
+BASALT_CONST uint FEATURE_TEXTURES = 1u << 28;        // any texture program at all (uv, ctx)
+BASALT_CONST uint FEATURE_TEX_NOISE = 1u << 29;       // fbm, wrinkled, windy, marble, Shirley
+BASALT_CONST uint FEATURE_TEX_IMAGE = 1u << 30;       // imagemap (any filter)
+BASALT_CONST uint FEATURE_LIGHT_INFINITE_IMAGE = 1u << 31;  // image (environment) infinite light
+BASALT_CONST uint FEATURE_COUNT = 32u;
+// Second feature word (Globals.features.y, specialization constant 1): finer texture bits.
+BASALT_CONST uint FEATURE2_TEX_EWA = 1u << 0;          // an image map filtered with EWA
+BASALT_CONST uint FEATURE2_TEX_CHECKER_AA = 1u << 1;   // checkerboard (closed-form box filter)
+BASALT_CONST uint FEATURE2_TEX_PROCEDURAL = 1u << 2;   // bilerp, dots, directionmix, mix, scale
+BASALT_CONST uint FEATURE2_NOISE_SPLIT = 1u << 3;      // noise precision mode "split"
+BASALT_CONST uint FEATURE2_TEX_SHIRLEY = 1u << 4;      // Shirley's solid textures (extensions)
+BASALT_CONST uint FEATURE2_COUNT = 5u;
 
 // ---- primitive references ------------------------------------------------------------
 // A BVH leaf covers prim_refs[a .. a+b). A ref is a triangle index, or a sphere index
@@ -179,6 +198,59 @@ BASALT_CONST uint BSDF_DIFFUSE = 4u;
 BASALT_CONST uint BSDF_GLOSSY = 8u;
 BASALT_CONST uint BSDF_SPECULAR = 16u;
 
+// ---- textures (docs/textures-spec.md) ---------------------------------------------------
+// A texture is a post-order program: instruction i evaluates textures[i] with the values of
+// its children on a small stack; textures[i].first is the first instruction of i's subtree,
+// so evaluating texture i runs instructions first .. i. A material slot's texture index is
+// the root instruction of its program. Children are pushed in the order listed per tag.
+BASALT_CONST uint TEXTURE_CONSTANT = 1u;       // param[0].xyz
+BASALT_CONST uint TEXTURE_SCALE = 2u;          // children: tex, scale
+BASALT_CONST uint TEXTURE_MIX = 3u;            // children: tex1, tex2, amount
+BASALT_CONST uint TEXTURE_DIRECTION_MIX = 4u;  // children: tex1, tex2; param[0].xyz = dir (world)
+BASALT_CONST uint TEXTURE_BILERP = 5u;         // param[0..3].xyz = v00, v01, v10, v11
+BASALT_CONST uint TEXTURE_CHECKERBOARD = 6u;   // children: tex1, tex2; ip.x = dimension 2 or 3
+BASALT_CONST uint TEXTURE_DOTS = 7u;           // children: inside, outside (after pbrt's swap)
+BASALT_CONST uint TEXTURE_FBM = 8u;            // ip.x = octaves; param[0].x = roughness
+BASALT_CONST uint TEXTURE_WRINKLED = 9u;       // ip.x = octaves; param[0].x = roughness
+BASALT_CONST uint TEXTURE_WINDY = 10u;
+BASALT_CONST uint TEXTURE_MARBLE = 11u;        // ip.x = octaves; param[0] = (roughness, scale,
+                                               //   variation, unused)
+BASALT_CONST uint TEXTURE_IMAGEMAP = 12u;      // image = first MipLevel, ip.x = level count;
+                                               //   param[0] = (scale, maxanisotropy, 0, 0)
+// Shirley's solid textures (seed 002 section 11.1; documented extensions, docs/scene-format.md)
+BASALT_CONST uint TEXTURE_STRIPE = 13u;
+BASALT_CONST uint TEXTURE_SHIRLEY_NOISE = 14u;
+BASALT_CONST uint TEXTURE_SHIRLEY_TURBULENCE = 15u;
+BASALT_CONST uint TEXTURE_TURBULENT_STRIPE = 16u;
+BASALT_CONST uint TEXTURE_IMAGE_INTERP = 17u;
+BASALT_CONST uint TEXTURE_VOLUME = 18u;
+BASALT_CONST uint TEXTURE_TYPE_COUNT = 19u;
+BASALT_CONST uint MAX_TEXTURE_STACK = 8u;       // deepest value stack a program may need
+
+// Texture.flags: mapping in bits 0-2, image filter in bits 3-5, wrap in bits 6-7, then flags.
+BASALT_CONST uint TEXFLAG_MAPPING_MASK = 7u;
+BASALT_CONST uint MAPPING_UV = 0u;           // map[0] = (su, sv, du, dv)
+BASALT_CONST uint MAPPING_SPHERICAL = 1u;    // xform = texture from world
+BASALT_CONST uint MAPPING_CYLINDRICAL = 2u;  // xform = texture from world
+BASALT_CONST uint MAPPING_PLANAR = 3u;       // xform; map[0] = (vs, ds), map[1] = (vt, dt)
+BASALT_CONST uint MAPPING_POINT3D = 4u;      // 3D textures: xform = texture from world
+BASALT_CONST uint TEXFLAG_FILTER_SHIFT = 3u, TEXFLAG_FILTER_MASK = 7u << 3;
+BASALT_CONST uint FILTER_POINT = 0u, FILTER_BILINEAR = 1u, FILTER_TRILINEAR = 2u, FILTER_EWA = 3u;
+BASALT_CONST uint TEXFLAG_WRAP_SHIFT = 6u, TEXFLAG_WRAP_MASK = 3u << 6;
+BASALT_CONST uint WRAP_REPEAT = 0u, WRAP_BLACK = 1u, WRAP_CLAMP = 2u, WRAP_OCTAHEDRAL = 3u;
+BASALT_CONST uint TEXFLAG_INVERT = 1u << 8;       // imagemap: 1 - value, clamped at 0
+BASALT_CONST uint TEXFLAG_FLOAT = 1u << 9;        // float texture (value broadcast to xyz)
+BASALT_CONST uint TEXFLAG_ALBEDO = 1u << 10;      // imagemap in an albedo slot: clamp to [0, 1]
+
+// Globals.texture_opts.x (quality knobs; docs/textures-spec.md 6)
+BASALT_CONST uint TEXOPT_DISABLE_FILTERING = 1u << 0;  // Option "disabletexturefiltering"
+BASALT_CONST uint TEXOPT_NOISE_SPLIT = 1u << 1;        // noise lookup point split in fp64
+
+// Offsets into tex_data of the shared tables (Globals.tex_tables), docs/textures-spec.md 5.
+// tex_tables.x: noise permutation (512 floats holding integers), y: EWA weight table
+// (EWA_LUT_SIZE floats), z: Shirley gradients (256 x 3 floats) and permutation (256), w: unused.
+BASALT_CONST uint EWA_LUT_SIZE = 128u;
+
 // ---- light tags ------------------------------------------------------------------------
 BASALT_CONST uint LIGHT_POINT = 1u;
 BASALT_CONST uint LIGHT_SPOT = 2u;
@@ -186,6 +258,7 @@ BASALT_CONST uint LIGHT_DISTANT = 3u;
 BASALT_CONST uint LIGHT_INFINITE_UNIFORM = 4u;
 BASALT_CONST uint LIGHT_AREA_TRIANGLE = 5u;
 BASALT_CONST uint LIGHT_AREA_SPHERE = 6u;
+BASALT_CONST uint LIGHT_INFINITE_IMAGE = 7u;  // equal-area octahedral image (pbrt-v4)
 BASALT_CONST uint LIGHT_FLAG_TWOSIDED = 1u;
 BASALT_CONST uint MAX_INFINITE_LIGHTS = 4u;
 
@@ -212,7 +285,16 @@ struct Globals {
   uvec4 image;             // width, height, max_depth, seed
   uvec4 counts;            // light count, infinite light count, filter type, filter table size N
   uvec4 infinite_lights;   // indices of the first MAX_INFINITE_LIGHTS infinite lights
-  uvec4 features;          // x: feature bits of the scene (same as the specialization constant)
+  uvec4 features;          // x, y: feature words of the scene (the specialization constants)
+  // Pixel footprint (pbrt-v4 Camera::Approximate_dp_dxy, docs/textures-spec.md 3): the
+  // camera-space minimum position and direction differentials, w of min_dir_dx = the spp scale
+  // max(1/8, 1/sqrt(spp)) that pbrt-v4 applies to every differential.
+  vec4 min_pos_dx;
+  vec4 min_pos_dy;
+  vec4 min_dir_dx;
+  vec4 min_dir_dy;
+  uvec4 texture_opts;      // x: TEXOPT_* bits, y: octave cap (0: none), z, w: unused
+  uvec4 tex_tables;        // offsets into tex_data (see EWA_LUT_SIZE above)
 };
 
 /// BVH node: interior when b == 0 (children at a and a+1), else leaf over prim_refs[a, a+b).
@@ -275,6 +357,29 @@ struct Light {
   vec4 pos;    // point, spot: world position
   vec4 dir;    // spot: unit axis (direction of emission); distant: unit direction towards light
   vec4 params; // spot: cos(falloff start), cos(falloff end); triangle: world area in x
+  uvec4 data;  // LIGHT_INFINITE_IMAGE: x = MipLevel of the image (level 0), y = offset in
+               // tex_data of its sampling distribution, z = of the MIS-compensated one
+  mat4 light_from_world;  // LIGHT_INFINITE_IMAGE: rotation into the light's frame
+};
+
+/// Texture instruction (docs/textures-spec.md section 2).
+struct Texture {
+  uint type;    // TEXTURE_*
+  uint flags;   // TEXFLAG_* (mapping, filter, wrap, ...)
+  uint first;   // first instruction of this texture's program
+  uint image;   // IMAGEMAP: index of its first MipLevel
+  uvec4 ip;     // integer parameters (per tag)
+  vec4 param[4];
+  vec4 map[2];  // mapping parameters
+  mat4 xform;   // texture space from world (spherical, cylindrical, planar, 3D)
+};
+
+/// One level of an image pyramid in texels[]: width x height texels of `channels` floats.
+struct MipLevel {
+  uint offset;
+  uint width;
+  uint height;
+  uint channels;  // 1 or 3
 };
 
 /// Push constants of the render pass: which samples and which pixels this dispatch covers.
@@ -314,6 +419,25 @@ BASALT_CONST uint PROBE_CAMERA_DIFF = 5u;  // in: key.yzw = px, py, sample -> ou
 //        u  = (sample flags (0: no sample), bsdf_flags (union of lobe flags),
 //              sample pdf_is_proportional, lobe tag of lobe 0)
 BASALT_CONST uint PROBE_BSDF = 6u;
+// PROBE_TEXTURE: tex_eval_rgb (key.z = 0) or tex_eval_float (key.z = 1) of texture key.y in
+// the context  p = o_tmax.xyz, uv = (o_tmax.w, d.w), n = d.xyz, dpdx = extra.xyz,
+// dpdy = extra2.xyz, dudx = extra.w, dudy = extra2.w, dvdx = extra3.x, dvdy = extra3.y
+//   out: f0.xyz = value (float: x, y and z equal)
+BASALT_CONST uint PROBE_TEXTURE = 7u;
+// PROBE_NOISE: noise functions at p = o_tmax.xyz (key.y = 0: pbrt perlin_noise; 1: Shirley's
+// solid noise; 2: pbrt fbm with dpdx = d.xyz, dpdy = extra.xyz, octaves key.z, roughness
+// extra.w; 3: pbrt turbulence, same inputs); key.w = 1 uses the split-precision lookup
+//   out: f0.x = value
+BASALT_CONST uint PROBE_NOISE = 8u;
+// PROBE_ENV: image infinite light key.y; in: d.xyz = world direction, extra.xy = u (sample)
+//   out: f0 = (Le(d) rgb, pdf(d)), f1 = (sampled wi xyz, pdf), f2 = (sampled Li rgb, 0),
+//        f3.x = pdf of the MIS-compensated distribution at d
+BASALT_CONST uint PROBE_ENV = 9u;
+// PROBE_DIFFERENTIALS: texture context at the first hit of the camera ray of pixel
+// (key.z, key.w), sample floatBitsToUint(extra.x) (docs/textures-spec.md 3): key.y = 0: with
+// the camera ray's differentials (bounce 0); 1: as at a later bounce (Approximate_dp_dxy)
+//   out: f0 = (dpdx, dudx), f1 = (dpdy, dudy), f2 = (uv, dvdx, dvdy), f3.xyz = dpdv
+BASALT_CONST uint PROBE_DIFFERENTIALS = 10u;
 
 /// One probe query.
 struct ProbeIn {
@@ -322,6 +446,7 @@ struct ProbeIn {
   vec4 d;       // ray direction (xyz)
   vec4 extra;   // op-specific
   vec4 extra2;  // op-specific
+  vec4 extra3;  // op-specific
 };
 
 /// One probe answer. Misses report prim INVALID_INDEX and t = -1.
@@ -334,15 +459,19 @@ struct ProbeOut {
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(ProbeIn) == 80 && sizeof(ProbeOut) == 80, "Probe layout");
-static_assert(sizeof(Globals) == 64 + 4 * 16 + 4 * 16, "Globals layout");
+static_assert(sizeof(ProbeIn) == 96 && sizeof(ProbeOut) == 80, "Probe layout");
+static_assert(sizeof(Globals) == 64 + 4 * 16 + 4 * 16 + 6 * 16, "Globals layout");
 static_assert(sizeof(BvhNode) == 32 && offsetof(BvhNode, hi) == 16, "BvhNode layout");
 static_assert(sizeof(Triangle) == 16, "Triangle layout");
 static_assert(sizeof(Vertex) == 32, "Vertex layout");
 static_assert(sizeof(Mesh) == 16, "Mesh layout");
 static_assert(sizeof(Sphere) == 80 && offsetof(Sphere, material) == 64, "Sphere layout");
 static_assert(sizeof(Material) == 336 && offsetof(Material, texture) == 272, "Material layout");
-static_assert(sizeof(Light) == 80 && offsetof(Light, L) == 16, "Light layout");
+static_assert(sizeof(Light) == 160 && offsetof(Light, L) == 16 &&
+              offsetof(Light, light_from_world) == 96, "Light layout");
+static_assert(sizeof(Texture) == 192 && offsetof(Texture, param) == 32 &&
+              offsetof(Texture, xform) == 128, "Texture layout");
+static_assert(sizeof(MipLevel) == 16, "MipLevel layout");
 static_assert(sizeof(PassConstants) == 32, "PassConstants layout");
 }  // namespace basalt::gpu
 #endif

@@ -783,15 +783,15 @@ TEST(CpuProbe, AnswersEveryOp) {
   s.sphere(glm::vec3(0, 0, 5), 1.0f, m);
   s.finish();
   std::vector<gpu::ProbeIn> in(7);
-  in[0] = {glm::uvec4(gpu::PROBE_CLOSEST, 0, 0, 0), glm::vec4(0, 0, 0, FLT_MAX), glm::vec4(0, 0, 1, 0), glm::vec4(0), glm::vec4(0)};
-  in[1] = {glm::uvec4(gpu::PROBE_CLOSEST, 0, 0, 0), glm::vec4(0, 0, 0, FLT_MAX), glm::vec4(0, 1, 0, 0), glm::vec4(0), glm::vec4(0)};
-  in[2] = {glm::uvec4(gpu::PROBE_OCCLUDED, 0, 0, 0), glm::vec4(0, 0, 0, 3.9f), glm::vec4(0, 0, 1, 0), glm::vec4(0), glm::vec4(0)};
+  in[0] = {glm::uvec4(gpu::PROBE_CLOSEST, 0, 0, 0), glm::vec4(0, 0, 0, FLT_MAX), glm::vec4(0, 0, 1, 0), glm::vec4(0), glm::vec4(0), glm::vec4(0)};
+  in[1] = {glm::uvec4(gpu::PROBE_CLOSEST, 0, 0, 0), glm::vec4(0, 0, 0, FLT_MAX), glm::vec4(0, 1, 0, 0), glm::vec4(0), glm::vec4(0), glm::vec4(0)};
+  in[2] = {glm::uvec4(gpu::PROBE_OCCLUDED, 0, 0, 0), glm::vec4(0, 0, 0, 3.9f), glm::vec4(0, 0, 1, 0), glm::vec4(0), glm::vec4(0), glm::vec4(0)};
   in[3] = {glm::uvec4(gpu::PROBE_RESPAWN, 0, 0, 0), glm::vec4(0, 0, 0, FLT_MAX), glm::vec4(0, 0, 1, 0),
-           glm::vec4(0, 0, 1, 0), glm::vec4(0)};
+           glm::vec4(0, 0, 1, 0), glm::vec4(0), glm::vec4(0)};
   in[4] = {glm::uvec4(gpu::PROBE_RNG, 5, 6, 7), glm::vec4(0), glm::vec4(0),
-           glm::vec4(std::bit_cast<float>(21u), 0, 0, 0), glm::vec4(0)};
-  in[5] = {glm::uvec4(gpu::PROBE_CAMERA, 8, 8, 3), glm::vec4(0), glm::vec4(0), glm::vec4(0), glm::vec4(0)};
-  in[6] = {glm::uvec4(gpu::PROBE_CAMERA_DIFF, 8, 8, 3), glm::vec4(0), glm::vec4(0), glm::vec4(0), glm::vec4(0)};
+           glm::vec4(std::bit_cast<float>(21u), 0, 0, 0), glm::vec4(0), glm::vec4(0)};
+  in[5] = {glm::uvec4(gpu::PROBE_CAMERA, 8, 8, 3), glm::vec4(0), glm::vec4(0), glm::vec4(0), glm::vec4(0), glm::vec4(0)};
+  in[6] = {glm::uvec4(gpu::PROBE_CAMERA_DIFF, 8, 8, 3), glm::vec4(0), glm::vec4(0), glm::vec4(0), glm::vec4(0), glm::vec4(0)};
   const std::vector<gpu::ProbeOut> out = probe(s.t, in);
   ASSERT_EQ(out.size(), in.size());
   EXPECT_NEAR(out[0].f0.x, 4.0f, 1e-5f);

@@ -8,7 +8,7 @@
 using namespace basalt::gpu;
 
 TEST(Layout, SizesAndOffsets) {
-  EXPECT_EQ(sizeof(Globals), 192u);
+  EXPECT_EQ(sizeof(Globals), 288u);
   EXPECT_EQ(offsetof(Globals, screen), 64u);
   EXPECT_EQ(offsetof(Globals, lens), 80u);
   EXPECT_EQ(offsetof(Globals, filter_radius), 96u);
@@ -17,6 +17,10 @@ TEST(Layout, SizesAndOffsets) {
   EXPECT_EQ(offsetof(Globals, counts), 144u);
   EXPECT_EQ(offsetof(Globals, infinite_lights), 160u);
   EXPECT_EQ(offsetof(Globals, features), 176u);
+  EXPECT_EQ(offsetof(Globals, min_pos_dx), 192u);
+  EXPECT_EQ(offsetof(Globals, min_dir_dy), 240u);
+  EXPECT_EQ(offsetof(Globals, texture_opts), 256u);
+  EXPECT_EQ(offsetof(Globals, tex_tables), 272u);
   EXPECT_EQ(sizeof(BvhNode), 32u);
   EXPECT_EQ(offsetof(BvhNode, a), 12u);
   EXPECT_EQ(offsetof(BvhNode, hi), 16u);
@@ -33,12 +37,21 @@ TEST(Layout, SizesAndOffsets) {
   EXPECT_EQ(sizeof(Material), 336u);
   EXPECT_EQ(offsetof(Material, value), 16u);
   EXPECT_EQ(offsetof(Material, texture), 272u);
-  EXPECT_EQ(sizeof(Light), 80u);
+  EXPECT_EQ(sizeof(Light), 160u);
+  EXPECT_EQ(offsetof(Light, data), 80u);
+  EXPECT_EQ(offsetof(Light, light_from_world), 96u);
   EXPECT_EQ(offsetof(Light, pmf), 12u);
   EXPECT_EQ(offsetof(Light, pos), 32u);
   EXPECT_EQ(offsetof(Light, params), 64u);
   EXPECT_EQ(sizeof(PassConstants), 32u);
-  EXPECT_EQ(sizeof(ProbeIn), 80u);
+  EXPECT_EQ(sizeof(ProbeIn), 96u);
+  EXPECT_EQ(offsetof(ProbeIn, extra3), 80u);
+  EXPECT_EQ(sizeof(Texture), 192u);
+  EXPECT_EQ(offsetof(Texture, ip), 16u);
+  EXPECT_EQ(offsetof(Texture, param), 32u);
+  EXPECT_EQ(offsetof(Texture, map), 96u);
+  EXPECT_EQ(offsetof(Texture, xform), 128u);
+  EXPECT_EQ(sizeof(MipLevel), 16u);
   EXPECT_EQ(sizeof(ProbeOut), 80u);
   EXPECT_EQ(offsetof(ProbeOut, u), 64u);
 }
@@ -54,7 +67,8 @@ TEST(Layout, FeatureBitsAreDistinct) {
                        FEATURE_MAT_PLASTIC, FEATURE_MAT_SUBSTRATE, FEATURE_MAT_TRANSLUCENT,
                        FEATURE_MAT_UBER, FEATURE_MAT_MEASURED, FEATURE_MAT_MIX,
                        FEATURE_MAT_MIX_WEIGHTED, FEATURE_MAT_INTERFACE, FEATURE_MAT_MIRROR,
-                       FEATURE_MAT_METAL};
+                       FEATURE_MAT_METAL, FEATURE_TEXTURES, FEATURE_TEX_NOISE,
+                       FEATURE_TEX_IMAGE, FEATURE_LIGHT_INFINITE_IMAGE};
   static_assert(sizeof(bits) / sizeof(bits[0]) == FEATURE_COUNT);
   uint all = 0;
   for (uint b : bits) {

@@ -507,12 +507,13 @@ TEST(Tables, FeatureNames) {
   EXPECT_TRUE(feature_names(0).empty());
   EXPECT_EQ(feature_names(FEATURE_TRIANGLES | FEATURE_LIGHT_AREA | FEATURE_SHADING_NORMALS),
             (std::vector<std::string>{"triangles", "light_area", "shading_normals"}));
-  std::vector<std::string> all = feature_names((1u << FEATURE_COUNT) - 1u);
+  std::vector<std::string> all = feature_names(0xffffffffu);
   EXPECT_EQ(all.size(), FEATURE_COUNT);
   EXPECT_EQ(all[7], "material_diffuse");
   EXPECT_EQ(all[11], "material_oren_nayar");
   EXPECT_EQ(all[22], "material_measured");
   EXPECT_EQ(all[27], "material_metal");
+  EXPECT_EQ(all[31], "light_infinite_image");
   for (const std::string& n : all) EXPECT_EQ(n.rfind("feature_", 0), std::string::npos) << n;
 }
 

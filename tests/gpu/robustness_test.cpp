@@ -53,7 +53,7 @@ void add_sphere(Scene& s, glm::vec3 c, float r) {
 gpu::ProbeIn query(std::uint32_t op, glm::vec3 o, glm::vec3 d, float tmax = 3.4e38f,
                    glm::vec3 extra = glm::vec3(0.0f)) {
   return gpu::ProbeIn{glm::uvec4(op, 0, 0, 0), glm::vec4(o, tmax), glm::vec4(d, 0.0f),
-                      glm::vec4(extra, 0.0f), glm::vec4(0.0f)};
+                      glm::vec4(extra, 0.0f), glm::vec4(0.0f), glm::vec4(0.0f)};
 }
 
 /// Uniform random direction.
