@@ -13,6 +13,7 @@
 #include "scene/scene.h"
 #include "scene/tables.h"
 #include "util/progress.h"
+#include "scene/textures.h"
 #include "util/stats.h"
 #include "vk/context.h"
 #include "vk/gpu_renderer.h"
@@ -31,7 +32,8 @@ double since(Clock::time_point t0) {
 constexpr int kExitInput = 1, kExitValidation = 3;
 
 struct Options {
-  std::string scene, device = "auto", stats, mix = "auto";
+  std::string scene, device = "auto", stats, mix = "auto", texture_filter = "scene";
+  int noise_octaves = 0;
   std::vector<std::string> outputs;
   int spp = -1;
   long long seed = -1;
@@ -65,6 +67,12 @@ int run(const Options& opt) {
   std::vector<std::string> warnings;
   basalt::SceneTables tables = basalt::build_tables(scene, &times, &warnings);
   for (const auto& w : warnings) std::cerr << w << "\n";
+  // Quality knobs (docs/textures.md): --texture-filter, --noise-octaves.
+  static const char* kFilters[] = {"point", "bilinear", "trilinear", "ewa"};
+  int filter = -1;
+  for (int i = 0; i < 4; ++i)
+    if (opt.texture_filter == kFilters[i]) filter = i;
+  st.quality = basalt::apply_texture_knobs(tables, filter, opt.noise_octaves);
   st.seconds_bvh = times.seconds_bvh;
   st.width = int(tables.width());
   st.height = int(tables.height());
@@ -148,10 +156,23 @@ int main(int argc, char** argv) {
                  "mix materials: auto (pbrt-v4 \"materials\" syntax stochastic, pbrt-v3 "
                  "\"namedmaterial1/2\" syntax weighted), stochastic or weighted (forces one)")
       ->check(CLI::IsMember({"auto", "stochastic", "weighted"}));
+  app.add_option("--texture-filter", opt.texture_filter,
+                 "override every image map's filter: point, bilinear, trilinear or ewa "
+                 "(default: each texture's own)")
+      ->check(CLI::IsMember({"scene", "point", "bilinear", "trilinear", "ewa"}));
+  app.add_option("--noise-octaves", opt.noise_octaves,
+                 "cap the octaves of fbm, wrinkled, windy and marble (0: no cap)")
+      ->check(CLI::Range(0, 64));
   app.add_option("--stats", opt.stats, "write render statistics as JSON to this file");
   app.add_flag("-q,--quiet", opt.quiet, "no progress bar or summary");
   app.add_flag("--list-devices", list, "list Vulkan devices and exit");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help prints and succeeds; any other parse error is a bad command line (exit 2).
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : 2;
+  }
   try {
     if (list) {
       for (const auto& name : basalt::vkx::Context::list_devices()) std::cout << name << "\n";

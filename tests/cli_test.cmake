@@ -155,8 +155,23 @@ if(rc EQUAL 0 OR NOT err MATCHES "mix\\.pbrt:6:1: error: a weighted \\(pbrt-v3\\
 endif()
 execute_process(COMMAND ${BASALT} ${WORK}/mix.pbrt --device cpu --mix sometimes
                 RESULT_VARIABLE rc ERROR_VARIABLE err OUTPUT_VARIABLE out)
-if(rc EQUAL 0)
-  fail("--mix sometimes: exit 0")
+if(NOT rc EQUAL 2)
+  fail("--mix sometimes: exit ${rc} (expected 2, a bad command line)")
+endif()
+
+# Texture quality knobs (docs/textures.md): in force in --stats, checked values.
+execute_process(COMMAND ${BASALT} ${SOURCE_DIR}/scenes/textures-procedural.pbrt --device cpu
+                --quiet --spp 1 --texture-filter trilinear --noise-octaves 3
+                --stats ${WORK}/knobs.json -o ${WORK}/knobs.exr RESULT_VARIABLE rc ERROR_VARIABLE err)
+file(READ ${WORK}/knobs.json knobs)
+if(NOT rc EQUAL 0 OR NOT knobs MATCHES "\"texture_filter\": \"trilinear\""
+   OR NOT knobs MATCHES "\"noise_octave_cap\": \"3\"")
+  fail("texture knobs: exit ${rc}: ${err} ${knobs}")
+endif()
+execute_process(COMMAND ${BASALT} ${SOURCE_DIR}/scenes/textures-procedural.pbrt --device cpu
+                --texture-filter sharp -o ${WORK}/knobs-bad.exr RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 2 OR EXISTS ${WORK}/knobs-bad.exr)
+  fail("--texture-filter sharp: exit ${rc} (expected 2): ${err}")
 endif()
 
 # A missing scene file and an unsupported output format fail before any rendering.

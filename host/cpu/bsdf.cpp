@@ -102,8 +102,9 @@ void add_material_lobes(Bsdf& b, const gpu::Material& m, const SurfacePoint& sp,
     l.ay = alpha(vrough);
     l.s0 = val(thickness).x;
     l.eta = val(eta).x;
-    l.c1 = val(albedo);
-    l.s1 = val(g).x;
+    // pbrt-v4 Coated*Material clamps albedo to [0, 1] and g to [-1, 1] (textures can leave them).
+    l.c1 = glm::clamp(val(albedo), 0.0f, 1.0f);
+    l.s1 = std::clamp(val(g).x, -1.0f, 1.0f);
     l.beckmann = beck;
     l.n0 = m.aux0;
     l.n1 = std::max(m.aux1, 1u);
@@ -111,7 +112,9 @@ void add_material_lobes(Bsdf& b, const gpu::Material& m, const SurfacePoint& sp,
   };
   switch (m.type) {
     case MATERIAL_DIFFUSE:
-      add_lobe(b, lambert(LOBE_LAMBERT_R, val(SLOT_DIFFUSE_REFLECTANCE)), scale);
+      // pbrt-v4 DiffuseMaterial clamps the reflectance to [0, 1].
+      add_lobe(b, lambert(LOBE_LAMBERT_R, glm::clamp(val(SLOT_DIFFUSE_REFLECTANCE), 0.0f, 1.0f)),
+               scale);
       break;
     case MATERIAL_OREN_NAYAR: {
       const glm::vec3 kd = val(SLOT_ON_REFLECTANCE);
@@ -173,15 +176,15 @@ void add_material_lobes(Bsdf& b, const gpu::Material& m, const SurfacePoint& sp,
       Lobe l;
       l.tag = LOBE_DIFFUSE_TRANSMISSION;
       const float s = val(SLOT_DT_SCALE).x;
-      l.c0 = s * val(SLOT_DT_REFLECTANCE);
-      l.c1 = s * val(SLOT_DT_TRANSMITTANCE);
+      l.c0 = glm::clamp(s * val(SLOT_DT_REFLECTANCE), 0.0f, 1.0f);  // pbrt-v4 clamps both
+      l.c1 = glm::clamp(s * val(SLOT_DT_TRANSMITTANCE), 0.0f, 1.0f);
       add_lobe(b, l, scale);
       break;
     }
     case MATERIAL_COATED_DIFFUSE: {
       Lobe l = layered(LOBE_LAYERED_DIFFUSE, SLOT_CD_UROUGH, SLOT_CD_VROUGH, SLOT_CD_THICKNESS,
                        SLOT_CD_ETA, SLOT_CD_ALBEDO, SLOT_CD_G);
-      l.c0 = val(SLOT_CD_REFLECTANCE);
+      l.c0 = glm::clamp(val(SLOT_CD_REFLECTANCE), 0.0f, 1.0f);  // pbrt-v4 clamps to [0, 1]
       add_lobe(b, l, scale);
       break;
     }
@@ -285,8 +288,11 @@ bool geo_reflect(glm::vec3 wo, glm::vec3 wi, glm::vec3 ng) {
 
 }  // namespace
 
-glm::vec3 slot_value(const gpu::Material& m, std::uint32_t slot, const SurfacePoint&) {
-  // Textures (issue: textures) will be evaluated here; for now every slot is its constant.
+glm::vec3 slot_value(const gpu::Material& m, std::uint32_t slot, const SurfacePoint& sp) {
+  // A textured slot evaluates its program in the hit's context (docs/textures-spec.md 2);
+  // a float program holds its value in x, y and z alike.
+  const std::uint32_t tex = m.texture[slot / 4][slot % 4];
+  if (tex != gpu::INVALID_INDEX && sp.scene) return tex_eval_rgb(*sp.scene, tex, sp.tex);
   return glm::vec3(m.value[slot]);
 }
 
@@ -294,6 +300,12 @@ std::uint32_t resolve_mix(const SceneTables& scene, std::uint32_t material, glm:
                           glm::vec3 wo_world) {
   SurfacePoint sp;
   sp.g.p = p;
+  return resolve_mix(scene, material, sp, wo_world);
+}
+
+std::uint32_t resolve_mix(const SceneTables& scene, std::uint32_t material, const SurfacePoint& sp,
+                          glm::vec3 wo_world) {
+  const glm::vec3 p = sp.g.p;
   std::uint32_t idx = material;
   for (std::uint32_t level = 0;; ++level) {
     if (idx >= scene.materials.size()) return gpu::INVALID_INDEX;
@@ -317,7 +329,7 @@ Bsdf bsdf_at(const SceneTables& scene, std::uint32_t material, const SurfacePoin
              glm::vec3 wo_world) {
   Bsdf b;
   b.scene = &scene;
-  const std::uint32_t idx = resolve_mix(scene, material, sp.g.p, wo_world);
+  const std::uint32_t idx = resolve_mix(scene, material, sp, wo_world);
   if (idx == gpu::INVALID_INDEX) return b;
   const gpu::Material& m = scene.materials[idx];
   if (m.type == gpu::MATERIAL_INTERFACE) {

@@ -47,8 +47,8 @@ struct Bsdf {
 };
 
 /// \brief Value of slot `slot` of material m at surface point sp: rgb in xyz, a float
-///        parameter in x. For now the constant Material.value[slot] also where the slot has a
-///        texture (the textures issue extends this function).
+///        parameter in x. A textured slot evaluates its program in sp.tex
+///        (docs/textures-spec.md section 2).
 glm::vec3 slot_value(const gpu::Material& m, std::uint32_t slot, const SurfacePoint& sp);
 
 /// \brief Material index after resolving MATERIAL_MIX chains (pbrt-v4
@@ -56,6 +56,10 @@ glm::vec3 slot_value(const gpu::Material& m, std::uint32_t slot, const SurfacePo
 ///        wo_world = -ray direction. Returns INVALID_INDEX for deeper than 16 levels or an
 ///        invalid index.
 std::uint32_t resolve_mix(const SceneTables& scene, std::uint32_t material, glm::vec3 p,
+                          glm::vec3 wo_world);
+/// \brief As above at the surface point \p sp, whose texture context a textured `amount`
+///        is evaluated in.
+std::uint32_t resolve_mix(const SceneTables& scene, std::uint32_t material, const SurfacePoint& sp,
                           glm::vec3 wo_world);
 
 /// \brief The BSDF of material index `material` at sp seen from wo_world (= -ray direction):

@@ -2,6 +2,7 @@
 #include "cpu/integrator.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 
 #include "cpu/bsdf.h"
@@ -47,7 +48,8 @@ constexpr std::uint32_t MAX_INTERFACE_CROSSINGS = 64;
 
 }  // namespace
 
-glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::uint64_t* rays) {
+glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::uint64_t* rays,
+                     const RayDifferential* camera_diff) {
   const gpu::Globals& g = scene.globals;
   const std::uint32_t max_depth = g.image.z;
   const std::uint32_t n_inf = std::min(g.counts.y, gpu::MAX_INFINITE_LIGHTS);
@@ -61,19 +63,23 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
     const Hit hit = intersect_closest(scene, ray);
     ++nrays;
     if (!hit.valid()) {
-      // Escaped: every infinite light, MIS-weighted against its uniform-sphere density.
+      // Escaped: every infinite light, MIS-weighted against its light-sampling density
+      // (uniform sphere, or an environment map's compensated distribution).
       for (std::uint32_t i = 0; i < n_inf; ++i) {
         const std::uint32_t li = g.infinite_lights[int(i)];
         if (li >= scene.lights.size()) continue;
         const gpu::Light& light = scene.lights[li];
+        const glm::vec3 Le = infinite_Le(scene, light, ray.d);
         const float w = (depth == 0 || specular)
                             ? 1.0f
-                            : power_heuristic(pdf_prev, light.pmf / (4.0f * PI));
-        L += beta * w * glm::vec3(light.L);
+                            : power_heuristic(pdf_prev, infinite_light_pdf(scene, light, ray.d));
+        L += beta * w * Le;
       }
       break;
     }
-    const SurfacePoint sp = surface_point(scene, ray, hit);
+    // The camera ray's differentials serve its first hit (and through interfaces); later
+    // hits approximate the footprint (docs/textures-spec.md section 3).
+    const SurfacePoint sp = surface_point(scene, ray, hit, depth == 0 ? camera_diff : nullptr);
     // Emission of an area light, MIS-weighted against light sampling from the previous vertex.
     if (sp.light < scene.lights.size()) {
       const gpu::Light& light = scene.lights[sp.light];
@@ -141,6 +147,11 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
 glm::vec3 path_radiance(const SceneTables& scene, std::uint32_t px, std::uint32_t py,
                         std::uint32_t s, std::uint64_t* rays) {
   const PathRng r{px, py, s, scene.globals.image.w};
+  if (scene.features & gpu::FEATURE_TEXTURES) {
+    const CameraRay c = camera_ray_differential(scene, px, py, s);
+    const RayDifferential diff{c.rx_o, c.rx_d, c.ry_o, c.ry_d};
+    return trace_path(scene, Ray{c.o, c.d, FLT_MAX}, r, rays, &diff);
+  }
   return trace_path(scene, camera_ray(scene, px, py, s), r, rays);
 }
 

@@ -5,6 +5,7 @@
 #include <glm/glm.hpp>
 
 #include "cpu/intersect.h"
+#include "cpu/texture.h"
 #include "cpu/rng.h"
 #include "scene/tables.h"
 
@@ -16,7 +17,7 @@ namespace basalt::cpu {
 /// \param rays if not null, incremented by the rays traced: every closest-hit ray (camera
 ///        and continuation) and every shadow ray, counted as the GPU's counters[0].
 glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r,
-                     std::uint64_t* rays = nullptr);
+                     std::uint64_t* rays = nullptr, const RayDifferential* camera_diff = nullptr);
 
 /// \brief Radiance of one path: camera ray of pixel (px, py), sample s, traced by trace_path.
 glm::vec3 path_radiance(const SceneTables& scene, std::uint32_t px, std::uint32_t py,

@@ -5,6 +5,7 @@
 #include <cfloat>
 #include <cmath>
 
+#include "cpu/envmap.h"
 #include "cpu/sampling.h"
 #include "cpu/surface.h"
 
@@ -181,6 +182,13 @@ LightSample sample_light(const SceneTables& scene, const gpu::Light& light, glm:
       ls.pdf = 1.0f / (4.0f * PI);
       ls.at_infinity = true;
       return ls;
+    case gpu::LIGHT_INFINITE_IMAGE:
+      // pbrt-v4 ImageInfiniteLight::SampleLi with allowIncompletePDF = true, as
+      // PathIntegrator::SampleLd asks (docs/textures-spec.md section 6): u.x picks the column,
+      // u.y the row of the MIS-compensated distribution.
+      env_sample(scene, light, u, true, ls.wi, ls.pdf, ls.Li);
+      ls.at_infinity = true;
+      return ls;
     case gpu::LIGHT_AREA_TRIANGLE:
       ls.area = true;
       sample_triangle(scene, light, p, u, ls);
@@ -216,6 +224,17 @@ float area_light_pdf(const SceneTables& scene, const gpu::Light& light, glm::vec
     default:
       return 0.0f;
   }
+}
+
+glm::vec3 infinite_Le(const SceneTables& scene, const gpu::Light& light, glm::vec3 w) {
+  if (light.type == gpu::LIGHT_INFINITE_IMAGE) return env_le(scene, light, w);
+  return glm::vec3(light.L);  // LIGHT_INFINITE_UNIFORM
+}
+
+float infinite_light_pdf(const SceneTables& scene, const gpu::Light& light, glm::vec3 w) {
+  // pbrt-v4 PathIntegrator::Li: lightSampler.PMF * light.PDF_Li(ctx, w, true).
+  if (light.type == gpu::LIGHT_INFINITE_IMAGE) return light.pmf * env_pdf(scene, light, w, true);
+  return light.pmf / (4.0f * PI);  // uniform sphere (spec section 7)
 }
 
 Ray shadow_ray(glm::vec3 p, glm::vec3 ng, float m, const LightSample& ls) {

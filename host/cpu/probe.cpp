@@ -6,9 +6,12 @@
 
 #include "cpu/bsdf.h"
 #include "cpu/camera.h"
+#include "cpu/envmap.h"
 #include "cpu/intersect.h"
+#include "cpu/noise.h"
 #include "cpu/rng.h"
 #include "cpu/surface.h"
+#include "cpu/texture.h"
 
 namespace basalt::cpu {
 
@@ -79,6 +82,68 @@ std::vector<gpu::ProbeOut> probe(const SceneTables& scene, const std::vector<gpu
         o.f3.y = float(b.n);
         o.u = glm::uvec4(bs.flags, bsdf_flags(b), bs.pdf_is_proportional ? 1u : 0u,
                          b.n > 0 ? b.lobes[0].tag : 0u);
+        break;
+      }
+      case gpu::PROBE_TEXTURE: {
+        // tex_eval_rgb / tex_eval_float of texture key.y in a given context (layout.h).
+        TextureContext c;
+        c.p = glm::vec3(q.o_tmax);
+        c.uv = glm::vec2(q.o_tmax.w, q.d.w);
+        c.n = glm::vec3(q.d);
+        c.dpdx = glm::vec3(q.extra);
+        c.dpdy = glm::vec3(q.extra2);
+        c.dudx = q.extra.w;
+        c.dudy = q.extra2.w;
+        c.dvdx = q.extra3.x;
+        c.dvdy = q.extra3.y;
+        o.f0 = glm::vec4(q.key.z == 1u ? glm::vec3(tex_eval_float(scene, q.key.y, c))
+                                       : tex_eval_rgb(scene, q.key.y, c),
+                         0.0f);
+        break;
+      }
+      case gpu::PROBE_NOISE: {
+        // Noise functions at p = o_tmax.xyz (layout.h): 0 Perlin, 2 fbm, 3 turbulence.
+        const glm::vec3 p(q.o_tmax);
+        if (q.key.y == 0u) o.f0.x = perlin_noise(scene, p);
+        else if (q.key.y == 2u)
+          o.f0.x = fbm(scene, p, glm::vec3(q.d), glm::vec3(q.extra), q.extra.w, int(q.key.z));
+        else if (q.key.y == 3u)
+          o.f0.x = turbulence(scene, p, glm::vec3(q.d), glm::vec3(q.extra), q.extra.w,
+                              int(q.key.z));
+        break;
+      }
+      case gpu::PROBE_ENV: {
+        // Image infinite light key.y (docs/textures-spec.md 6): Le and plain pdf at d, the
+        // compensated pdf, and a sample of the plain distribution with u = extra.xy.
+        if (q.key.y >= scene.lights.size()) break;
+        const gpu::Light& l = scene.lights[q.key.y];
+        const glm::vec3 d(q.d);
+        o.f0 = glm::vec4(env_le(scene, l, d), env_pdf(scene, l, d, false));
+        o.f3.x = env_pdf(scene, l, d, true);
+        glm::vec3 wi(0.0f), le(0.0f);
+        float pdf = 0.0f;
+        if (env_sample(scene, l, glm::vec2(q.extra), false, wi, pdf, le)) {
+          o.f1 = glm::vec4(wi, pdf);
+          o.f2 = glm::vec4(le, 0.0f);
+        }
+        break;
+      }
+      case gpu::PROBE_DIFFERENTIALS: {
+        // Texture context at the first hit of the camera ray of pixel (key.z, key.w), sample
+        // bits(extra.x): key.y = 0 with the camera ray's differentials, 1 approximated.
+        const CameraRay c = camera_ray_differential(scene, q.key.z, q.key.w,
+                                                    std::bit_cast<std::uint32_t>(q.extra.x));
+        const Ray cam{c.o, c.d, FLT_MAX};
+        const Hit h = intersect_closest(scene, cam);
+        o.u.x = h.prim;
+        if (h.valid()) {
+          const RayDifferential diff{c.rx_o, c.rx_d, c.ry_o, c.ry_d};
+          const SurfacePoint sp = surface_point(scene, cam, h, q.key.y == 0u ? &diff : nullptr);
+          o.f0 = glm::vec4(sp.tex.dpdx, sp.tex.dudx);
+          o.f1 = glm::vec4(sp.tex.dpdy, sp.tex.dudy);
+          o.f2 = glm::vec4(sp.tex.uv, sp.tex.dvdx, sp.tex.dvdy);
+          o.f3 = glm::vec4(sp.tex.p, 0.0f);
+        }
         break;
       }
       default:

@@ -2,6 +2,7 @@
 #include "cpu/surface.h"
 
 #include <cfloat>
+#include <algorithm>
 #include <cmath>
 
 namespace basalt::cpu {
@@ -44,7 +45,9 @@ SurfaceGeometry triangle_geometry(const SceneTables& scene, std::uint32_t tri, f
     g.dpdu = glm::vec3(0.0f);
   } else {
     g.dpdu = (duv12.y * dp02 - duv02.y * dp12) / det;
+    g.dpdv = (duv02.x * dp12 - duv12.x * dp02) / det;  // docs/textures-spec.md 1
   }
+  g.uv = b0 * uv0 + b1 * uv1 + b2 * uv2;
   return g;
 }
 
@@ -68,6 +71,20 @@ SurfaceGeometry sphere_geometry(const SceneTables& scene, std::uint32_t s, glm::
   const float qx = glm::dot(d, ax), qy = glm::dot(d, ay);
   const float du_x = -2.0f * PI * qy, du_y = 2.0f * PI * qx;
   g.dpdu = du_x * ax + du_y * ay;
+  // docs/textures-spec.md 1 (pbrt-v4 Sphere::InteractionFromIntersection, full sphere):
+  // u = phi / 2 pi, v = 1 - theta / pi, dpdv = -pi (z cos phi, z sin phi, -r sin theta).
+  const glm::vec3 az(sp.axis_z);
+  const float qz = glm::dot(d, az);
+  float phi = std::atan2(qy, qx);
+  if (phi < 0.0f) phi += 2.0f * PI;
+  const float cos_theta = std::clamp(qz / r, -1.0f, 1.0f);
+  const float theta = std::acos(cos_theta);
+  g.uv = glm::vec2(phi * (1.0f / (2.0f * PI)), (theta - PI) / (0.0f - PI));
+  const float zr = std::sqrt(qx * qx + qy * qy);
+  const float cos_phi = zr > 0.0f ? qx / zr : 1.0f, sin_phi = zr > 0.0f ? qy / zr : 0.0f;
+  const float sin_theta = std::sqrt(std::max(0.0f, 1.0f - cos_theta * cos_theta));
+  const float dv_x = -PI * (qz * cos_phi), dv_y = -PI * (qz * sin_phi), dv_z = -PI * (-r * sin_theta);
+  g.dpdv = dv_x * ax + dv_y * ay + dv_z * az;
   return g;
 }
 
@@ -86,7 +103,8 @@ Frame shading_frame(glm::vec3 ns, glm::vec3 dpdu) {
   return Frame::from_z(ns);
 }
 
-SurfacePoint surface_point(const SceneTables& scene, const Ray& ray, const Hit& hit) {
+SurfacePoint surface_point(const SceneTables& scene, const Ray& ray, const Hit& hit,
+                           const RayDifferential* diff) {
   SurfacePoint sp;
   if (hit.prim & gpu::PRIM_SPHERE_BIT) {
     const std::uint32_t s = hit.prim & gpu::PRIM_INDEX_MASK;
@@ -104,6 +122,21 @@ SurfacePoint surface_point(const SceneTables& scene, const Ray& ray, const Hit& 
     }
   }
   sp.frame = shading_frame(sp.g.ns, sp.g.dpdu);
+  sp.scene = &scene;
+  if (scene.features & gpu::FEATURE_TEXTURES) {
+    sp.tex.p = sp.g.p;
+    sp.tex.n = sp.g.ng;
+    sp.tex.uv = sp.g.uv;
+    // docs/textures-spec.md 1: the Duff pair of ng stands in for a degenerate (dpdu, dpdv).
+    glm::vec3 du = sp.g.dpdu, dv = sp.g.dpdv;
+    const glm::vec3 c = glm::cross(du, dv);
+    if (c == glm::vec3(0.0f)) {
+      const Frame f = Frame::from_z(sp.g.ng);
+      du = f.t1;
+      dv = f.t2;
+    }
+    compute_differentials(scene, sp.tex, du, dv, diff, ray.o, ray.d);
+  }
   return sp;
 }
 

@@ -6,6 +6,7 @@
 
 #include "cpu/intersect.h"
 #include "cpu/sampling.h"
+#include "cpu/texture.h"
 #include "scene/tables.h"
 
 namespace basalt::cpu {
@@ -17,6 +18,8 @@ struct SurfaceGeometry {
   glm::vec3 ns{0.0f, 0.0f, 1.0f};  // shading normal
   float m = 0.0f;  // magnitude bound of the primitive at p, for offset_ray (section 5)
   glm::vec3 dpdu{0.0f};  // dp/du (docs/materials-spec.md 1.1); zero when there is none
+  glm::vec3 dpdv{0.0f};  // dp/dv (docs/textures-spec.md 1); zero for a degenerate uv map
+  glm::vec2 uv{0.0f};    // surface parameterisation (docs/textures-spec.md 1)
 };
 
 /// A shaded hit: geometry, shading frame, material and area light.
@@ -25,6 +28,8 @@ struct SurfacePoint {
   Frame frame;  // shading frame (s, t, ns) of docs/materials-spec.md 1.1 (shading_frame)
   std::uint32_t material = gpu::INVALID_INDEX;
   std::uint32_t light = gpu::INVALID_INDEX;   // area light of the primitive, if emissive
+  const SceneTables* scene = nullptr;  // for texture lookups (slot_value)
+  TextureContext tex;                  // texture context (docs/textures-spec.md 1, 3)
 };
 
 /// \brief Point of triangle tri at barycentrics (b0, b1, b2): interpolated position, ng from
@@ -44,8 +49,11 @@ SurfaceGeometry sphere_geometry(const SceneTables& scene, std::uint32_t s, glm::
 ///        otherwise the Duff frame of ns (docs/path-spec.md section 4).
 Frame shading_frame(glm::vec3 ns, glm::vec3 dpdu);
 
-/// \brief Shaded hit of a valid Hit of ray (b0 = 1 - b1 - b2 for triangles).
-SurfacePoint surface_point(const SceneTables& scene, const Ray& ray, const Hit& hit);
+/// \brief Shaded hit of a valid Hit of ray (b0 = 1 - b1 - b2 for triangles). When the scene
+///        has textures, its texture context with the footprint of docs/textures-spec.md 3:
+///        from \p diff (the camera ray's differentials) when given, else approximated.
+SurfacePoint surface_point(const SceneTables& scene, const Ray& ray, const Hit& hit,
+                           const RayDifferential* diff = nullptr);
 
 /// \brief Magnitude bound of a triangle point b0 p0 + b1 p1 + b2 p2 (docs/path-spec.md
 ///        section 5): the largest component of abs(b0 p0) + abs(b1 p1) + abs(b2 p2).

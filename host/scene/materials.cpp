@@ -609,12 +609,17 @@ std::uint32_t tag_of(const Material& m, MixMode mode) {
   return mode == MixMode::Weighted ? MATERIAL_MIX_WEIGHTED : MATERIAL_MIX;
 }
 
-// The texture table index of a texture reference. Textures arrive with the textures issue;
-// until then no texture exists and every reference is an error at the parameter.
-std::uint32_t texture_index(const Material& m, const std::string& key, const MaterialParam& p) {
-  throw SceneError(p.loc.file.empty() ? m.loc : p.loc,
-                   "textures are not supported yet (parameter \"" + key +
-                       "\" refers to texture \"" + p.texture + "\")");
+// The root instruction of the program of a slot's texture reference (rgb slots need a
+// spectrum texture, float slots a float one), an error at the parameter otherwise.
+std::uint32_t texture_index(const Material& m, const std::string& key, const MaterialParam& p,
+                            bool rgb, TextureProgramBuilder& textures) {
+  const SourceLoc& loc = p.loc.file.empty() ? m.loc : p.loc;
+  try {
+    return textures.program(p.texture, rgb, loc);
+  } catch (const SceneError& e) {
+    if (e.loc.str() != loc.str()) throw;
+    throw SceneError(loc, "parameter \"" + key + "\": " + e.message);
+  }
 }
 
 // "material "name"" or "material 'type'" for messages.
@@ -626,8 +631,11 @@ std::string describe(const Material& m) {
 
 std::vector<gpu::Material> convert_materials(const Scene& scene, MixMode mode,
                                              std::vector<float>* measured,
-                                             std::vector<std::string>* warnings) {
+                                             std::vector<std::string>* warnings,
+                                             TextureProgramBuilder* textures) {
   const std::size_t n = scene.materials.size();
+  TextureProgramBuilder check_only(scene, nullptr);
+  TextureProgramBuilder& tb = textures ? *textures : check_only;
   std::vector<std::uint32_t> tags(n);
   for (std::size_t i = 0; i < n; ++i) tags[i] = tag_of(scene.materials[i], mode);
 
@@ -682,7 +690,7 @@ std::vector<gpu::Material> convert_materials(const Scene& scene, MixMode mode,
       if (it != m.params.end()) {
         const MaterialParam& p = it->second;
         if (!p.texture.empty())
-          g.texture[s.slot / 4][s.slot % 4] = texture_index(m, s.key, p);
+          g.texture[s.slot / 4][s.slot % 4] = texture_index(m, s.key, p, s.rgb, tb);
         if (p.value.size() == 1)
           v = glm::vec3(p.value[0]);
         else if (p.value.size() == 3)

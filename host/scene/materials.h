@@ -12,6 +12,7 @@
 #include "../../shaders/shared/layout.h"
 #include "scene/paramset.h"
 #include "scene/scene.h"
+#include "scene/textures.h"
 
 namespace basalt {
 
@@ -58,13 +59,16 @@ Material parse_material(const std::string& type, const ParamSet& ps, const Sourc
                         const SourceLoc& type_loc, const std::string& what, MaterialContext& ctx);
 
 /// \brief The GPU materials of \p scene, index for index, with mixes rendered as \p mode says,
-/// texture references resolved (none exist yet: an error), and measured tables appended to
+/// texture references resolved into programs by \p textures (a slot holds its root
+/// instruction; null: references are only checked), and measured tables appended to
 /// \p measured (aux0 = offset; each table once).
 /// \throws SceneError at the material (or parameter) for what cannot be rendered: a weighted
 ///         mix of mixes or interfaces or with more than MAX_LOBES lobes, a mix cycle or a
-///         nesting deeper than 16, an unknown type, a texture reference.
+///         nesting deeper than 16, an unknown type, an undefined texture or one of the
+///         wrong type.
 std::vector<gpu::Material> convert_materials(const Scene& scene, MixMode mode,
                                              std::vector<float>* measured,
-                                             std::vector<std::string>* warnings);
+                                             std::vector<std::string>* warnings,
+                                             TextureProgramBuilder* textures = nullptr);
 
 }  // namespace basalt

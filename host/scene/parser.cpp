@@ -9,12 +9,15 @@
 #include <fstream>
 #include <glm/gtc/type_ptr.hpp>
 #include <map>
+#include <numbers>
 #include <sstream>
 
+#include "scene/images.h"
 #include "scene/materials.h"
 #include "scene/paramset.h"
 #include "scene/ply.h"
 #include "scene/scene.h"
+#include "scene/textures.h"
 #include "scene/tokenizer.h"
 
 namespace basalt {
@@ -121,9 +124,12 @@ class Parser {
   void pixel_filter(Tokenizer& tok, const Token& d);
   void integrator(Tokenizer& tok, const Token& d);
   void option(Tokenizer& tok, const Token& d);
+  void texture(Tokenizer& tok, const Token& d, const std::string& dir);
   void shape(Tokenizer& tok, const Token& d, const std::string& dir);
-  void light_source(Tokenizer& tok, const Token& d);
+  void light_source(Tokenizer& tok, const Token& d, const std::string& dir);
   void area_light_source(Tokenizer& tok, const Token& d);
+  void image_infinite_light(const ParamSet& ps, const Token& d, const std::string& dir,
+                            float scale, Light& l);
   Material make_material(const std::string& type, const ParamSet& ps, const SourceLoc& loc,
                          const SourceLoc& type_loc, const std::string& what,
                          const std::string& dir);
@@ -402,7 +408,7 @@ void Parser::directive(Tokenizer& tok, const Token& d, const std::string& dir) {
   } else if (n == "Shape") {  // scene content
     shape(tok, d, dir);
   } else if (n == "LightSource") {
-    light_source(tok, d);
+    light_source(tok, d, dir);
   } else if (n == "AreaLightSource") {
     area_light_source(tok, d);
   } else if (n == "Material") {
@@ -442,7 +448,7 @@ void Parser::directive(Tokenizer& tok, const Token& d, const std::string& dir) {
       gs_.named_material_loc = d.loc;
     }
   } else if (n == "Texture") {
-    throw SceneError(d.loc, "textures are not supported yet");
+    texture(tok, d, dir);
   } else if (n == "MakeNamedMedium" || n == "MediumInterface") {
     if (n == "MediumInterface") {
       // MediumInterface "" "" (no media), as exporters write it, is harmless.
@@ -529,6 +535,12 @@ void Parser::film(Tokenizer& tok, const Token& d) {
   f.xres = positive_int(ps, "xresolution", 1280, d.loc);
   f.yres = positive_int(ps, "yresolution", 720, d.loc);
   f.filename = ps.get_string("filename", "pbrt.exr");
+  // pbrt-v4 RGBFilm clamps each sample's rgb to this maximum component; basalt does not, so
+  // a finite value is refused rather than ignored (the default is infinite).
+  if (const Param* mc = ps.lookup("maxcomponentvalue", {"float"});
+      mc && !(mc->numbers.size() == 1 && std::isinf(mc->numbers[0])))
+    throw SceneError(mc->loc, "\"maxcomponentvalue\" is not supported (basalt does not clamp "
+                              "samples; remove it or set it to infinity)");
   ps.report_unused("Film '" + type + "'", scene_.warnings);
   scene_.film = f;
 }
@@ -598,8 +610,37 @@ void Parser::integrator(Tokenizer& tok, const Token& d) {
   if (in.max_depth < 0)
     throw SceneError(ps.loc_of("maxdepth", d.loc), "maxdepth must not be negative");
   in.regularize = ps.get_bool("regularize", false);
+  // pbrt-v4's BSDF regularisation is not implemented: refuse it rather than ignore it.
+  if (in.regularize)
+    throw SceneError(ps.loc_of("regularize", d.loc),
+                     "\"regularize\" true is not supported (basalt does not regularize BSDFs)");
   ps.report_unused("Integrator '" + type + "'", scene_.warnings);
   scene_.integrator = in;
+}
+
+// Texture "name" "float"|"spectrum" "class" params (pbrt-v4 BasicSceneBuilder::Texture): the
+// texture space is the CTM here; a name may be defined once per type.
+void Parser::texture(Tokenizer& tok, const Token& d, const std::string& dir) {
+  verify_world(d);
+  std::string name = string_arg(tok, d, "a texture name");
+  std::string type = string_arg(tok, d, "a texture type");
+  const std::optional<Token>& ct = tok.peek();
+  SourceLoc cls_loc = ct ? ct->loc : d.loc;
+  std::string cls = string_arg(tok, d, "a texture class");
+  ParamSet ps = parse_param_list(tok);
+  for (const TextureDef& t : scene_.textures)
+    if (t.name == name && t.is_float == (type == "float"))
+      throw SceneError(d.loc, "redefining " + type + " texture \"" + name + "\"");
+  auto defined = [&](const std::string& n, bool is_float) {
+    for (const TextureDef& t : scene_.textures)
+      if (t.name == n && t.is_float == is_float) return true;
+    return false;
+  };
+  TextureDef t = parse_texture(name, type, cls, ps, gs_.ctm, d.loc, cls_loc, defined,
+                               [&](const std::string& f) { return resolve(f, dir); });
+  load_texture_image(scene_, t);  // imagemap: decode its file (once per file and encoding)
+  ps.report_unused("Texture \"" + name + "\"", scene_.warnings);
+  scene_.textures.push_back(std::move(t));
 }
 
 // Option "name" value (pbrt-v4 BasicSceneBuilder::Option); only "seed" affects basalt.
@@ -614,7 +655,6 @@ void Parser::option(Tokenizer& tok, const Token& d) {
       decl.substr(decl.find_last_of(" \t") == std::string::npos ? 0 : decl.find_last_of(" \t") + 1);
   std::string nn = normalize_option(name);
   static const char* known[] = {"disablepixeljitter",
-                                "disabletexturefiltering",
                                 "disablewavelengthjitter",
                                 "displacementedgescale",
                                 "msereferenceimage",
@@ -622,7 +662,13 @@ void Parser::option(Tokenizer& tok, const Token& d) {
                                 "forcediffuse",
                                 "pixelstats",
                                 "wavefront"};
-  if (nn == "seed") {
+  if (nn == "disabletexturefiltering") {
+    // pbrt-v4 BasicSceneBuilder::Option: "true" or "false".
+    if (v->text != "true" && v->text != "false")
+      throw SceneError(v->loc, "Option \"disabletexturefiltering\" expects true or false, got " +
+                                   v->describe());
+    scene_.disable_texture_filtering = v->text == "true";
+  } else if (nn == "seed") {
     if (!v->is_integer_literal())
       throw SceneError(v->loc, "Option \"seed\" expects an integer, got " + v->describe());
     option_seed_ = int(v->number);
@@ -726,13 +772,106 @@ void Parser::shape(Tokenizer& tok, const Token& d, const std::string& dir) {
   scene_.shapes.push_back(std::move(s));
 }
 
-// LightSource "point" / "spot" / "distant" / "infinite" (pbrt-v4 lights.cpp Create functions).
-void Parser::light_source(Tokenizer& tok, const Token& d) {
+// pbrt-v4 EqualAreaSquareToSphere (util/math.cpp) in double, for the host-side illuminance
+// normalisation only (the renderers' fp32 twins live in host/cpu/envmap.cpp and envmap.glsl).
+static glm::dvec3 equal_area_square_to_sphere_d(double px, double py) {
+  const double u = 2.0 * px - 1.0, v = 2.0 * py - 1.0;
+  const double up = std::abs(u), vp = std::abs(v);
+  const double signed_distance = 1.0 - (up + vp);
+  const double r = 1.0 - std::abs(signed_distance);
+  const double phi = (r == 0.0 ? 1.0 : (vp - up) / r + 1.0) * (std::numbers::pi / 4.0);
+  const double z = std::copysign(1.0 - r * r, signed_distance);
+  const double s = r * std::sqrt(std::max(0.0, 2.0 - r * r));
+  return {std::copysign(std::cos(phi), u) * s, std::copysign(std::sin(phi), v) * s, z};
+}
+
+// LightSource "infinite" with "filename" (pbrt-v4 Light::Create "infinite" and the
+// ImageInfiniteLight constructor, lights.cpp): decodes the square equal-area map, folds the
+// "illuminance" normalisation into the scale and records the light's frame (the CTM).
+void Parser::image_infinite_light(const ParamSet& ps, const Token& d, const std::string& dir,
+                                  float scale, Light& l) {
+  const SourceLoc file_loc = ps.loc_of("filename", d.loc);
+  if (const Param* p = ps.find("L"))
+    throw SceneError(p->loc,
+                     "can't specify both emission \"L\" and \"filename\" with an infinite light");
+  l.kind = Light::Kind::InfiniteImage;
+  const std::string name = ps.get_string("filename", "");
+  if (name.empty()) throw SceneError(file_loc, "infinite light \"filename\" is empty");
+  l.filename = resolve(name, dir);
+  // pbrt-v4 Image::Read: 8-bit and 16-bit PNG through sRGB (no "encoding" parameter for this
+  // light), EXR and PFM linear.
+  DecodedImage im = read_texture_image(l.filename, ColorEncoding{ImageEncoding::SRGB}, file_loc);
+  if (im.channels != 3)
+    throw SceneError(file_loc, "\"" + l.filename +
+                                   "\": image provided to \"infinite\" light must have R, G, "
+                                   "and B channels");
+  if (im.width != im.height)
+    throw SceneError(file_loc, "\"" + l.filename + "\": image resolution (" +
+                                   std::to_string(im.width) + ", " + std::to_string(im.height) +
+                                   ") is non-square; an infinite light needs a square "
+                                   "equal-area octahedral environment map");
+  for (float v : im.texels)
+    if (!std::isfinite(v))
+      throw SceneError(file_loc, "\"" + l.filename +
+                                     "\": image has infinite or not-a-number pixel values and "
+                                     "so is not suitable as a light");
+  const int res = im.width;
+  // pbrt-v4: with "illuminance" E_v > 0 the map is scaled so that its illuminance at an
+  // upward-facing (+z in the light's frame) point is E_v, measured as pbrt-v4 does: luminance
+  // (sRGB Y weights) times cos theta summed over the texels whose centre has w.z > 0, times
+  // 2 pi / (res^2). (pbrt-v4 quirk, reproduced: each texel covers 4 pi / res^2, so the
+  // measured value is half the true illuminance and the result is lit by 2 E_v.)
+  const float E_v = ps.get_float("illuminance", -1.0f);
+  if (E_v > 0.0f) {
+    constexpr double kLum[3] = {0.2126390, 0.7151687, 0.0721923};  // sRGB LuminanceVector
+    double illuminance = 0.0;
+    for (int y = 0; y < res; ++y) {
+      const double v = (y + 0.5) / res;
+      for (int x = 0; x < res; ++x) {
+        const glm::dvec3 w = equal_area_square_to_sphere_d((x + 0.5) / res, v);
+        if (w.z <= 0.0) continue;
+        const float* t = &im.texels[3 * (std::size_t(y) * res + x)];
+        for (int c = 0; c < 3; ++c) illuminance += t[c] * kLum[c] * w.z;
+      }
+    }
+    illuminance *= 2.0 * std::numbers::pi / (double(res) * res);
+    if (!(illuminance > 0.0))
+      throw SceneError(ps.loc_of("illuminance", d.loc),
+                       "\"illuminance\" given, but the upper hemisphere of \"" + l.filename +
+                           "\" is black");
+    scale = static_cast<float>(scale * (E_v / illuminance));
+  }
+  if (!std::isfinite(scale)) throw SceneError(ps.loc_of("scale", d.loc), "scale is not finite");
+  l.value = glm::vec3(scale);
+  // pbrt-v4 renderFromLight is the CTM: its rotation (uniform scale allowed, it does not change
+  // directions) maps light directions to world; light_from_world is its transpose.
+  const glm::mat3 m(gs_.ctm);
+  glm::vec3 c[3] = {m[0], m[1], m[2]};
+  const float len[3] = {glm::length(c[0]), glm::length(c[1]), glm::length(c[2])};
+  const float sc = (len[0] + len[1] + len[2]) / 3.0f;
+  bool ok = sc > 0.0f && std::isfinite(sc);
+  for (int i = 0; ok && i < 3; ++i)
+    ok = std::abs(len[i] - sc) <= 1e-4f * sc &&
+         std::abs(glm::dot(c[i], c[(i + 1) % 3])) <= 1e-4f * sc * sc;
+  if (!ok)
+    throw SceneError(d.loc, "the transform of an image infinite light must be a rotation "
+                            "(non-uniform scale and shear are not supported)");
+  for (int i = 0; i < 3; ++i) c[i] /= len[i];
+  l.light_from_world = glm::transpose(glm::mat3(c[0], c[1], c[2]));
+  l.image_res = res;
+  l.image_rgb = std::move(im.texels);
+}
+
+// LightSource "point" / "spot" / "distant" / "infinite" (pbrt-v4 lights.cpp Create functions);
+// dir resolves an environment map's file name.
+void Parser::light_source(Tokenizer& tok, const Token& d, const std::string& dir) {
   verify_world(d);
   std::string type = string_arg(tok, d, "a light type");
   ParamSet ps = params(tok);
+  // "illuminance" is supported for image infinite lights only (image_infinite_light).
+  const bool image_light = type == "infinite" && ps.find("filename") != nullptr;
   for (const char* photometric : {"power", "illuminance"})
-    if (const Param* p = ps.find(photometric))
+    if (const Param* p = ps.find(photometric); p && !(image_light && p->name == "illuminance"))
       throw SceneError(
           p->loc, "parameter \"" + p->name + "\" (photometric light scaling) is not supported yet");
   Light l;
@@ -777,9 +916,15 @@ void Parser::light_source(Tokenizer& tok, const Token& d) {
                        "distant light \"from\" and \"to\" are the same point");
     l.dir = glm::normalize(w);
   } else if (type == "infinite") {
-    // pbrt-v4 InfiniteLight::Create: uniform when there is no "filename".
-    if (const Param* p = ps.find("filename"))
-      throw SceneError(p->loc, "image infinite lights not supported yet");
+    // pbrt-v4 Light::Create "infinite": uniform without "filename", else ImageInfiniteLight.
+    if (const Param* p = ps.find("portal"))
+      throw SceneError(p->loc, "portal infinite lights (parameter \"portal\") are not supported yet");
+    if (image_light) {
+      image_infinite_light(ps, d, dir, scale, l);
+      ps.report_unused("LightSource 'infinite'", scene_.warnings);
+      scene_.lights.push_back(std::move(l));
+      return;
+    }
     l.kind = Light::Kind::Infinite;
     l.value =
         ps.get_spectrum("L", SpectrumUse::Illuminant, &scene_.warnings).value_or(glm::vec3(1)) *

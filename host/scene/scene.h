@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "scene/images.h"
+
 namespace basalt {
 
 /// A place in a scene file, for messages of the form file:line:column.
@@ -70,6 +72,39 @@ struct MaterialParam {
   SourceLoc loc;
 };
 
+/// A texture's argument: a constant (x of a float texture; rgb of a spectrum texture) or a
+/// named texture (looked up in the namespace of the argument's type).
+struct TextureArg {
+  glm::vec3 value{0.0f};
+  std::string texture;  // empty for a constant
+  bool is_float = false;
+  SourceLoc loc;
+};
+
+/// A named texture (pbrt-v4 Texture directive), interpreted with pbrt-v4's defaults into the
+/// fields of its instruction (shaders/shared/layout.h, docs/textures-spec.md section 2).
+struct TextureDef {
+  std::string name;
+  bool is_float = false;       // "float" or "spectrum"
+  std::string cls;             // pbrt-v4 class: "checkerboard", "fbm", ...
+  std::uint32_t tag = 0;       // TEXTURE_*
+  std::uint32_t flags = 0;     // TEXFLAG_* (mapping)
+  glm::mat4 texture_from_world{1.0f};  // inverse of the CTM at the Texture line
+  glm::vec4 map[2]{glm::vec4(1.0f, 1.0f, 0.0f, 0.0f), glm::vec4(0.0f)};
+  glm::uvec4 ip{0u};
+  glm::vec4 param[4]{};
+  std::vector<TextureArg> children;  // in the order layout.h lists for the tag
+  SourceLoc loc;
+  // imagemap: the file (resolved path), its encoding and the decoded image (Scene::images)
+  std::string image_file;
+  ColorEncoding image_encoding;
+  SourceLoc image_loc;  // the "filename" parameter
+  int image = -1;
+  // volume (Shirley's 3D texture array): nx * ny * nz voxels, 1 or 3 floats each, voxel
+  // (i, j, k) at ((k * ny + j) * nx + i) * channels; the resolution is in ip.yzw.
+  std::vector<float> voxels;
+};
+
 /// How mix materials are rendered (the CLI's --mix): as each scene's syntax says (pbrt-v4
 /// `string materials` -> stochastic, pbrt-v3 `namedmaterial1/2` -> weighted), or forced.
 enum class MixMode { Auto, Stochastic, Weighted };
@@ -125,14 +160,22 @@ struct Shape {
   SourceLoc loc;
 };
 
-/// Point, spot, distant and uniform infinite lights, in world space.
+/// Point, spot, distant, uniform infinite and image infinite lights, in world space.
 struct Light {
-  enum class Kind { Point, Spot, Distant, Infinite } kind = Kind::Point;
-  glm::vec3 value{1.0f};  // I (point, spot) or L (distant, infinite), scale applied
+  enum class Kind { Point, Spot, Distant, Infinite, InfiniteImage } kind = Kind::Point;
+  glm::vec3 value{1.0f};  // I (point, spot) or L (distant, infinite), scale applied;
+                          // InfiniteImage: the scale (illuminance folded in) in each channel
   glm::vec3 from{0.0f};   // point, spot: world position
   glm::vec3 dir{0.0f, 0.0f, 1.0f};  // spot: unit emission axis; distant: unit direction towards the light
   float cone_angle = 30.0f;        // spot, degrees
   float cone_delta = 5.0f;         // spot, degrees
+  // InfiniteImage (pbrt-v4 ImageInfiniteLight): the decoded square equal-area octahedral
+  // image, linear rgb, rows top to bottom (image_res^2 * 3 floats), and the rotation from
+  // world to the light's frame (the inverse of the CTM's rotation at the LightSource line).
+  std::string filename;  // resolved path
+  int image_res = 0;
+  std::vector<float> image_rgb;
+  glm::mat3 light_from_world{1.0f};
   SourceLoc loc;
 };
 
@@ -146,6 +189,10 @@ struct Scene {
   std::vector<Shape> shapes;
   std::vector<Light> lights;
   std::vector<MeasuredTable> measured;  // each file once (Material::measured indexes it)
+  std::vector<TextureDef> textures;     // in file order; names unique per type
+  std::vector<DecodedImage> images;     // each (file, encoding) once; TextureDef::image
+  std::map<std::string, int> image_index;  // image_key(file, encoding) -> images index
+  bool disable_texture_filtering = false;  // Option "disabletexturefiltering"
   MixMode mix_mode = MixMode::Auto;     // set by the caller (--mix) before build_tables
   std::vector<std::string> warnings;  // "file:line:column: warning: ..."
 };

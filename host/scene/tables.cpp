@@ -10,6 +10,7 @@
 
 #include "accel/bvh.h"
 #include "scene/materials.h"
+#include "scene/textures.h"
 
 namespace basalt {
 namespace {
@@ -89,9 +90,109 @@ std::vector<float> gaussian_cdf(float radius, float sigma) {
   return cumulative(w);
 }
 
+// Mean over the texels of an image infinite light's map of the mean of its clamped rgb (the
+// sum in pbrt-v4 ImageInfiniteLight::Phi divided by the texel count).
+double image_light_average(const gpu::Light& l, const std::vector<gpu::MipLevel>& mips,
+                           const std::vector<float>& texels) {
+  if (l.data.x >= mips.size()) return 0.0;
+  const gpu::MipLevel& m = mips[l.data.x];
+  const std::size_t n = std::size_t(m.width) * m.height;
+  if (n == 0 || m.channels != 3) return 0.0;
+  double sum = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const float* t = &texels[m.offset + 3 * i];
+    sum += (std::max(0.0, double(t[0])) + std::max(0.0, double(t[1])) +
+            std::max(0.0, double(t[2]))) / 3.0;
+  }
+  return sum / double(n);
+}
+
+// pbrt-v4 PiecewiseConstant1D constructor (util/sampling.h) over [0, 1], in float as pbrt-v4:
+// func = |f|, cdf[i] = cdf[i-1] + func[i-1] / n, integral = cdf[n], cdf normalised (uniform
+// when the integral is 0).
+struct PiecewiseConstant1D {
+  std::vector<float> func, cdf;
+  float integral = 0.0f;
+};
+PiecewiseConstant1D piecewise_constant_1d(const float* f, std::size_t n) {
+  PiecewiseConstant1D d;
+  d.func.resize(n);
+  d.cdf.resize(n + 1);
+  for (std::size_t i = 0; i < n; ++i) d.func[i] = std::abs(f[i]);
+  d.cdf[0] = 0.0f;
+  for (std::size_t i = 1; i < n + 1; ++i) d.cdf[i] = d.cdf[i - 1] + d.func[i - 1] * 1.0f / float(n);
+  d.integral = d.cdf[n];
+  for (std::size_t i = 1; i < n + 1; ++i)
+    d.cdf[i] = d.integral == 0.0f ? float(i) / float(n) : d.cdf[i] / d.integral;
+  return d;
+}
+
+// pbrt-v4 PiecewiseConstant2D constructor over [0, 1]^2 (one conditional per row v of the
+// nu x nv function, the marginal over the rows' integrals), appended to tex_data in the
+// layout of docs/textures-spec.md section 6; returns its offset.
+std::uint32_t append_distribution_2d(const std::vector<float>& f, std::uint32_t nu,
+                                     std::uint32_t nv, std::vector<float>& tex_data) {
+  std::vector<PiecewiseConstant1D> cond;
+  std::vector<float> marginal_func(nv);
+  for (std::uint32_t v = 0; v < nv; ++v) {
+    cond.push_back(piecewise_constant_1d(&f[std::size_t(v) * nu], nu));
+    marginal_func[v] = cond.back().integral;
+  }
+  const PiecewiseConstant1D marginal = piecewise_constant_1d(marginal_func.data(), nv);
+  const auto offset = static_cast<std::uint32_t>(tex_data.size());
+  tex_data.insert(tex_data.end(), {float(nu), float(nv), marginal.integral, 0.0f});
+  tex_data.insert(tex_data.end(), marginal.func.begin(), marginal.func.end());
+  tex_data.insert(tex_data.end(), marginal.cdf.begin(), marginal.cdf.end());
+  for (const PiecewiseConstant1D& c : cond) {
+    tex_data.insert(tex_data.end(), c.func.begin(), c.func.end());
+    tex_data.insert(tex_data.end(), c.cdf.begin(), c.cdf.end());
+    tex_data.push_back(c.integral);
+  }
+  return offset;
+}
+
+// An image infinite light's tables (docs/textures-spec.md section 6; pbrt-v4
+// ImageInfiniteLight constructor): the map as one MipLevel (data.x), pbrt-v4's sampling
+// distribution (Image::GetSamplingDistribution: the channel average of each texel; data.y)
+// and the MIS-compensated one (minus the average, clamped at 0, all ones if nothing is left;
+// data.z); the light's frame.
+void image_light_tables(const Light& sl, gpu::Light& l, SceneTables& t) {
+  const auto res = static_cast<std::uint32_t>(sl.image_res);
+  if (res == 0 || sl.image_rgb.size() != std::size_t(res) * res * 3)
+    throw SceneError(sl.loc, "image infinite light has no image");
+  gpu::MipLevel level{};
+  level.offset = static_cast<std::uint32_t>(t.texels.size());
+  level.width = level.height = res;
+  level.channels = 3;
+  l.data = glm::uvec4(0u);
+  l.data.x = static_cast<std::uint32_t>(t.mip_levels.size());
+  t.mip_levels.push_back(level);
+  t.texels.insert(t.texels.end(), sl.image_rgb.begin(), sl.image_rgb.end());
+  const std::size_t n = std::size_t(res) * res;
+  std::vector<float> d(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const float* c = &sl.image_rgb[3 * i];
+    d[i] = (c[0] + c[1] + c[2]) / 3.0f;  // pbrt-v4 ImageChannelValues::Average
+  }
+  l.data.y = append_distribution_2d(d, res, res, t.tex_data);
+  double average = 0.0;  // pbrt-v4 accumulates in double
+  for (float v : d) average += v;
+  average /= double(n);
+  bool all_zero = true;
+  for (float& v : d) {
+    v = static_cast<float>(std::max(double(v) - average, 0.0));
+    all_zero = all_zero && v == 0.0f;
+  }
+  if (all_zero) std::fill(d.begin(), d.end(), 1.0f);
+  l.data.z = append_distribution_2d(d, res, res, t.tex_data);
+  l.light_from_world = glm::mat4(sl.light_from_world);
+}
+
 // Light power for the selection pmf (docs/path-spec.md section 6; pbrt-v4 Light::Phi), with
-// the mean of rgb as the scalar; R is the scene bounding-sphere radius.
-double light_power(const gpu::Light& l, const std::vector<gpu::Sphere>& spheres, double R) {
+// the mean of rgb as the scalar; R is the scene bounding-sphere radius; an image infinite
+// light's image is read from mips / texels.
+double light_power(const gpu::Light& l, const std::vector<gpu::Sphere>& spheres, double R,
+                   const std::vector<gpu::MipLevel>& mips, const std::vector<float>& texels) {
   const double L = (static_cast<double>(l.L.x) + l.L.y + l.L.z) / 3.0;
   const double sides = (l.flags & gpu::LIGHT_FLAG_TWOSIDED) ? 2.0 : 1.0;
   double p = 0.0;
@@ -102,6 +203,9 @@ double light_power(const gpu::Light& l, const std::vector<gpu::Sphere>& spheres,
       break;
     case gpu::LIGHT_DISTANT: p = kPi * R * R * L; break;
     case gpu::LIGHT_INFINITE_UNIFORM: p = 4.0 * kPi * kPi * R * R * L; break;
+    case gpu::LIGHT_INFINITE_IMAGE:  // L is the scale; the image average as pbrt-v4 Phi
+      p = 4.0 * kPi * kPi * R * R * L * image_light_average(l, mips, texels);
+      break;
     case gpu::LIGHT_AREA_TRIANGLE: p = kPi * L * l.params.x * sides; break;
     case gpu::LIGHT_AREA_SPHERE: {
       double r = spheres[l.prim].center_radius.w;
@@ -163,7 +267,10 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
   // ---- materials -------------------------------------------------------------------------
   // docs/materials-spec.md section 3 slots; mixes as Scene::mix_mode says; measured tables
   // appended to t.measured.
-  t.materials = convert_materials(scene, scene.mix_mode, &t.measured, warnings);
+  TextureProgramBuilder texture_programs(scene, &t.textures);
+  texture_programs.set_image_tables(&t.mip_levels, &t.texels);  // imagemap pyramids
+  t.materials =
+      convert_materials(scene, scene.mix_mode, &t.measured, warnings, &texture_programs);
   std::uint32_t default_material = INVALID_INDEX;  // diffuse 0.5, appended on first use
   auto material_of = [&](const Shape& s) -> std::uint32_t {
     if (s.material < 0) {
@@ -215,12 +322,20 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
         break;
       }
       case Light::Kind::Infinite:
-        l.type = gpu::LIGHT_INFINITE_UNIFORM;
+      case Light::Kind::InfiniteImage:
+        l.type = sl.kind == Light::Kind::Infinite ? gpu::LIGHT_INFINITE_UNIFORM
+                                                  : gpu::LIGHT_INFINITE_IMAGE;
         if (infinite_count == gpu::MAX_INFINITE_LIGHTS)
           throw SceneError(sl.loc, "more than " + std::to_string(gpu::MAX_INFINITE_LIGHTS) +
                                        " infinite lights are not supported");
         g.infinite_lights[infinite_count++] = index;
+        // FEATURE_LIGHT_INFINITE: some infinite light (escaped rays look them up);
+        // FEATURE_LIGHT_INFINITE_IMAGE: one of them is an environment map.
         t.features |= gpu::FEATURE_LIGHT_INFINITE;
+        if (sl.kind == Light::Kind::InfiniteImage) {
+          t.features |= gpu::FEATURE_LIGHT_INFINITE_IMAGE;
+          image_light_tables(sl, l, t);
+        }
         break;
     }
     t.lights.push_back(l);
@@ -372,9 +487,10 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
   {
     std::vector<double> power(t.lights.size());
     for (std::size_t i = 0; i < t.lights.size(); ++i)
-      power[i] = light_power(t.lights[i], t.spheres, g.scene_sphere.w);
+      power[i] = light_power(t.lights[i], t.spheres, g.scene_sphere.w, t.mip_levels, t.texels);
     auto infinite_extent = [](const gpu::Light& l) {
-      return l.type == gpu::LIGHT_DISTANT || l.type == gpu::LIGHT_INFINITE_UNIFORM;
+      return l.type == gpu::LIGHT_DISTANT || l.type == gpu::LIGHT_INFINITE_UNIFORM ||
+             l.type == gpu::LIGHT_INFINITE_IMAGE;
     };
     double bounded_power = 0.0;
     int n_inf = 0;
@@ -448,9 +564,70 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
   if (!t.triangles.empty()) t.features |= gpu::FEATURE_TRIANGLES;
   if (!t.spheres.empty()) t.features |= gpu::FEATURE_SPHERES;
   if (t.lights.size() > scene.lights.size()) t.features |= gpu::FEATURE_LIGHT_AREA;
-  for (const gpu::Material& m : t.materials) t.features |= material_feature(m.type);
+  // Material and texture features from what the shapes reach (a named material no shape
+  // uses, and its textures, cost nothing): the shapes' materials and, through mixes, theirs.
+  std::vector<bool> reached(t.materials.size(), false);
+  std::vector<std::uint32_t> todo;
+  for (const gpu::Mesh& m : t.meshes) todo.push_back(m.material);
+  for (const gpu::Sphere& sp : t.spheres) todo.push_back(sp.material);
+  while (!todo.empty()) {
+    const std::uint32_t mi = todo.back();
+    todo.pop_back();
+    if (mi >= t.materials.size() || reached[mi]) continue;
+    reached[mi] = true;
+    const gpu::Material& m = t.materials[mi];
+    if (m.type == gpu::MATERIAL_MIX || m.type == gpu::MATERIAL_MIX_WEIGHTED) {
+      todo.push_back(m.aux0);
+      todo.push_back(m.aux1);
+    }
+  }
+  for (std::size_t mi = 0; mi < t.materials.size(); ++mi) {
+    if (!reached[mi]) continue;
+    const gpu::Material& m = t.materials[mi];
+    t.features |= material_feature(m.type);
+    for (std::uint32_t slot = 0; slot < gpu::MATERIAL_SLOTS; ++slot) {
+      const std::uint32_t root = m.texture[slot / 4][slot % 4];
+      if (root == INVALID_INDEX) continue;
+      for (std::uint32_t i = t.textures[root].first; i <= root; ++i) {
+        t.features |= gpu::FEATURE_TEXTURES;
+        switch (t.textures[i].type) {
+          case gpu::TEXTURE_FBM:
+          case gpu::TEXTURE_WRINKLED:
+          case gpu::TEXTURE_WINDY:
+          case gpu::TEXTURE_MARBLE:
+            t.features |= gpu::FEATURE_TEX_NOISE;
+            break;
+          case gpu::TEXTURE_DOTS:  // pbrt-v4 places its dots with Perlin noise
+            t.features |= gpu::FEATURE_TEX_NOISE;
+            t.features2 |= gpu::FEATURE2_TEX_PROCEDURAL;
+            break;
+          case gpu::TEXTURE_CHECKERBOARD:
+            t.features2 |= gpu::FEATURE2_TEX_CHECKER_AA;
+            break;
+          case gpu::TEXTURE_IMAGEMAP:
+            t.features |= gpu::FEATURE_TEX_IMAGE;
+            if (((t.textures[i].flags & gpu::TEXFLAG_FILTER_MASK) >> gpu::TEXFLAG_FILTER_SHIFT) ==
+                gpu::FILTER_EWA)
+              t.features2 |= gpu::FEATURE2_TEX_EWA;
+            break;
+          case gpu::TEXTURE_CONSTANT:
+            break;
+          default:
+            t.features2 |= gpu::FEATURE2_TEX_PROCEDURAL;
+            break;
+        }
+      }
+    }
+  }
   if (cam.lens_radius > 0.0f) t.features |= gpu::FEATURE_THIN_LENS;
-  g.features = glm::uvec4(t.features, 0u, 0u, 0u);
+  g.features = glm::uvec4(t.features, t.features2, 0u, 0u);
+
+  // ---- textures: shared tables, footprint and options (docs/textures-spec.md) ---------------
+  g.tex_tables = texture_shared_tables(t.tex_data);
+  min_differentials(g, scene.sampler.spp);
+  g.camera_from_world = glm::mat4(glm::inverse(glm::dmat4(cam.world_from_camera)));
+  g.texture_opts = glm::uvec4(scene.disable_texture_filtering ? gpu::TEXOPT_DISABLE_FILTERING : 0u,
+                              0u, 0u, 0u);
   return t;
 }
 

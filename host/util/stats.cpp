@@ -67,6 +67,10 @@ std::string to_json(const RenderStats& st) {
   o << "  \"triangles\": " << st.triangles << ",\n";
   o << "  \"spheres\": " << st.spheres << ",\n";
   o << "  \"lights\": " << st.lights << ",\n";
+  o << "  \"quality\": {";
+  for (size_t i = 0; i < st.quality.size(); ++i)
+    o << (i ? ", " : "") << quote(st.quality[i].first) << ": " << quote(st.quality[i].second);
+  o << "},\n";
   o << "  \"features\": [";
   for (size_t i = 0; i < st.features.size(); ++i) o << (i ? ", " : "") << quote(st.features[i]);
   o << "]\n}\n";

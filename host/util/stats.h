@@ -2,6 +2,7 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace basalt {
@@ -16,6 +17,7 @@ struct RenderStats {
   double samples_per_second = 0, rays_per_second = 0;
   std::uint64_t rays = 0, nonfinite_samples = 0, peak_rss_bytes = 0, triangles = 0, spheres = 0, lights = 0;
   std::vector<std::string> features;
+  std::vector<std::pair<std::string, std::string>> quality;  // quality knobs in force
 };
 
 /// \brief Serialises \p stats as a JSON object.

@@ -41,7 +41,8 @@ std::uint32_t tile_stride(std::uint32_t n) {
 const char* kTableNames[] = {"globals", "BVH nodes", "primitive refs", "triangles",
                              "vertices", "meshes",    "spheres",        "materials",
                              "lights",   "light cdf", "filter table",   "accumulation", "counters",
-                             "measured BRDF"};
+                             "measured BRDF", "textures",   "image levels", "texels",
+                             "texture data"};
 
 /// Feature bits the lean render shader (BASALT_LEAN_MATERIALS) implements: everything but
 /// the material kinds other than diffuse. A feature added to layout.h later is not in this
@@ -77,6 +78,12 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     std::size_t bytes;
   };
   const std::size_t pixels = std::size_t(width_) * height_;
+  // A table that may be empty is always bound: empty, it gets a zeroed 16-byte buffer
+  // (zero-sized buffers are invalid).
+  auto optional_table = [](const auto& v) {
+    const std::size_t bytes = v.size() * sizeof(v[0]);
+    return Src{v.empty() ? nullptr : v.data(), std::max<std::size_t>(16, bytes)};
+  };
   const Src src[BINDING_COUNT] = {
       {&t.globals, sizeof(t.globals)},
       {t.nodes.data(), t.nodes.size() * sizeof(gpu::BvhNode)},
@@ -91,8 +98,8 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
       {t.filter_cdf.data(), t.filter_cdf.size() * sizeof(float)},
       {nullptr, pixels * sizeof(glm::vec4)},
       {nullptr, 4 * sizeof(std::uint32_t)},
-      // Always bound: an empty table gets a 16-byte buffer (zero-sized buffers are invalid).
-      {t.measured.data(), std::max<std::size_t>(16, t.measured.size() * sizeof(float))}};
+      optional_table(t.measured), optional_table(t.textures), optional_table(t.mip_levels),
+      optional_table(t.texels), optional_table(t.tex_data)};
   const std::uint64_t limit = ctx.info().max_storage_buffer_range;
   for (int i = 0; i < BINDING_COUNT; ++i)
     if (src[i].bytes > limit)
@@ -112,8 +119,12 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   t0 = Clock::now();
   std::vector<std::pair<std::uint32_t, Buffer*>> bindings;
   for (std::uint32_t i = 0; i < tables_.size(); ++i) bindings.push_back({i, &tables_[i]});
-  render_ = lean ? make_pipeline(render_lean_spv, sizeof(render_lean_spv), features, bindings)
-                 : make_pipeline(render_spv, sizeof(render_spv), features, bindings);
+  // The second feature word follows the first: the scene's own when the scene's features are
+  // asked for, everything when a caller forces another set (the all-features comparison).
+  const std::uint32_t features2 = features == t.features ? t.features2 : 0xffffffffu;
+  render_ = lean ? make_pipeline(render_lean_spv, sizeof(render_lean_spv), features, features2,
+                                 bindings)
+                 : make_pipeline(render_spv, sizeof(render_spv), features, features2, bindings);
   // lavapipe compiles at first dispatch: an empty pass makes that cost part of pipeline time.
   dispatch(render_, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, 0}, 1);
   seconds_pipeline = since(t0);
@@ -126,7 +137,7 @@ GpuRenderer::~GpuRenderer() {
 }
 
 GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std::size_t bytes,
-                                                 std::uint32_t features,
+                                                 std::uint32_t features, std::uint32_t features2,
                                                  const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings) {
   auto& dev = ctx_.device;
   Pipeline p;
@@ -146,9 +157,14 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
                                        .pushConstantRangeCount = 1,
                                        .pPushConstantRanges = &push});
   vk::ShaderModule module = dev.createShaderModule({.codeSize = bytes, .pCode = spirv});
-  vk::SpecializationMapEntry entry{.constantID = 0, .offset = 0, .size = sizeof(std::uint32_t)};
+  // Constant 0: FEATURES (the scene's feature word); constant 1: FEATURES2 (the second word,
+  // the texture families of layout.h).
+  const std::uint32_t words[2] = {features, features2};
+  const vk::SpecializationMapEntry entries[2] = {
+      {.constantID = 0, .offset = 0, .size = sizeof(std::uint32_t)},
+      {.constantID = 1, .offset = sizeof(std::uint32_t), .size = sizeof(std::uint32_t)}};
   vk::SpecializationInfo spec{
-      .mapEntryCount = 1, .pMapEntries = &entry, .dataSize = sizeof(features), .pData = &features};
+      .mapEntryCount = 2, .pMapEntries = entries, .dataSize = sizeof(words), .pData = words};
   vk::ComputePipelineCreateInfo info{
       .stage = {.stage = vk::ShaderStageFlagBits::eCompute,
                 .module = module,
@@ -259,7 +275,7 @@ std::vector<gpu::ProbeOut> GpuRenderer::probe(const std::vector<gpu::ProbeIn>& q
   for (std::uint32_t i = 0; i < tables_.size(); ++i) bindings.push_back({i, &tables_[i]});
   bindings.push_back({BINDING_PROBE_IN, &in});
   bindings.push_back({BINDING_PROBE_OUT, &out});
-  Pipeline p = make_pipeline(probe_spv, sizeof(probe_spv), 0xffffffffu, bindings);
+  Pipeline p = make_pipeline(probe_spv, sizeof(probe_spv), 0xffffffffu, 0xffffffffu, bindings);
   const std::uint32_t n = std::uint32_t(queries.size());
   dispatch(p, gpu::PassConstants{0, 1, 0, n, 1, n, 0, 0}, n);
   std::vector<gpu::ProbeOut> result(queries.size());

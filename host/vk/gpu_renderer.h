@@ -70,6 +70,7 @@ class GpuRenderer {
     vk::DescriptorSet set;
   };
   Pipeline make_pipeline(const std::uint32_t* spirv, std::size_t bytes, std::uint32_t features,
+                         std::uint32_t features2,
                          const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings);
   void destroy_pipeline(Pipeline& p);
   void dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint32_t invocations);

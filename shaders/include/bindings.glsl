@@ -11,6 +11,8 @@
 // gated by (FEATURES & FEATURE_X) != 0u; all bits set (the default, used by the probe) must
 // render every scene correctly.
 layout(constant_id = 0) const uint FEATURES = 0xffffffffu;
+// The second feature word (FEATURE2_*: texture families), specialization constant 1.
+layout(constant_id = 1) const uint FEATURES2 = 0xffffffffu;
 
 layout(std430, set = 0, binding = BINDING_GLOBALS) restrict readonly buffer GlobalsBuffer {
   Globals globals;
@@ -37,5 +39,11 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) restrict buffer CounterBuffe
 
 // MERL half-angle tables, rgb interleaved (MATERIAL_MEASURED aux0).
 BASALT_TABLE(MEASURED, MeasuredBuffer, float, measured);
+
+// Textures (docs/textures-spec.md): programs, image levels, texels, shared tables.
+BASALT_TABLE(TEXTURES, TextureBuffer, Texture, textures);
+BASALT_TABLE(MIP_LEVELS, MipLevelBuffer, MipLevel, mip_levels);
+BASALT_TABLE(TEXELS, TexelBuffer, float, texels);
+BASALT_TABLE(TEX_DATA, TexDataBuffer, float, tex_data);
 
 #endif

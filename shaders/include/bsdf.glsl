@@ -28,7 +28,7 @@
 
 // The lobes of the current BSDF. One BSDF is live at a time per invocation (the integrator's
 // current vertex, or the probe's query), so its lobe list lives here rather than being copied
-// with every Bsdf argument: a Bsdf is valid until the next bsdf_at / bsdf_build.
+// with every Bsdf argument: a Bsdf is valid until the next bsdf_at.
 Lobe bsdf_lobes[MAX_LOBES];
 
 // Material kinds whose BSDFs may have more than one lobe (section 3). Without them every index
@@ -57,9 +57,30 @@ struct Bsdf {
   uint type;
 };
 
-// Slot value of material m at surface point sp: the constant now; the textures issue
-// evaluates Material.texture[slot / 4][slot % 4] here when it is not INVALID_INDEX.
-vec4 slot_value(uint m, uint slot, SurfacePoint sp) { return materials[m].value[slot]; }
+// Slot values of the material whose lobes are being built (slots_resolve). With textures, every
+// slot's texture program is evaluated in ONE place (slots_resolve's loop), because lavapipe
+// inlines every call site: 50 slot_value sites each holding the texture interpreter made the
+// render pipeline take minutes to compile. Without FEATURE_TEXTURES slot_value reads the
+// material table directly and slot_cache is dead.
+vec4 slot_cache[MATERIAL_SLOTS];
+
+// Evaluates every slot of material m at sp into slot_cache: the constant, or the value of the
+// slot's texture program in the hit's context (docs/textures-spec.md 2; a float program holds
+// its value in x, y and z alike).
+void slots_resolve(uint m, SurfacePoint sp) {
+  if ((FEATURES & FEATURE_TEXTURES) == 0u) return;
+  [[dont_unroll]] for (uint s = 0u; s < MATERIAL_SLOTS; ++s) {
+    uint tex = materials[m].texture[s / 4u][s % 4u];
+    slot_cache[s] = tex != INVALID_INDEX ? vec4(tex_eval_rgb(tex, sp.tex), 0.0)
+                                         : materials[m].value[s];
+  }
+}
+
+// Slot value of material m (the one slots_resolve was last called for) at sp.
+vec4 slot_value(uint m, uint slot, SurfacePoint sp) {
+  if ((FEATURES & FEATURE_TEXTURES) != 0u) return slot_cache[slot];
+  return materials[m].value[slot];
+}
 
 // Alpha of a roughness slot (docs/materials-spec.md 1.4).
 float slot_alpha(uint m, uint slot, SurfacePoint sp) {
@@ -79,26 +100,6 @@ float mix_hash(vec3 p, vec3 wo, uint index) {
 
 // True if m indexes the material table.
 bool material_valid(uint m) { return m < uint(materials.length()); }
-
-// Resolves stochastic mixes (docs/materials-spec.md section 4) from material m at surface
-// point sp with wo = -ray direction (world): the chosen material, or INVALID_INDEX (none) for
-// an invalid index or more than 16 nested mixes.
-uint mix_resolve(uint m, SurfacePoint sp, vec3 wo) {
-#if !BSDF_ALL_MATERIALS
-  return m;
-#else
-  if (!has_feature(FEATURE_MAT_MIX)) return m;
-  [[dont_unroll]] for (uint level = 0u; level <= 16u; ++level) {
-    if (!material_valid(m) || materials[m].type != MATERIAL_MIX) return m;
-    if (level == 16u) break;
-    float a = slot_value(m, SLOT_MIX_AMOUNT, sp).x;
-    if (a <= 0.0) m = materials[m].aux0;
-    else if (a >= 1.0) m = materials[m].aux1;
-    else m = a < mix_hash(sp.p, wo, m) ? materials[m].aux0 : materials[m].aux1;
-  }
-  return INVALID_INDEX;
-#endif
-}
 
 // A lobe with every parameter zero.
 Lobe lobe_new(uint tag, vec3 weight, uint flags, uint bits) {
@@ -164,7 +165,9 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
   switch (type) {
     case MATERIAL_DIFFUSE:
       if (has_feature(FEATURE_MAT_DIFFUSE))
-        lobe_add(b, lobe_new(LOBE_LAMBERT_R, scale * slot_value(m, SLOT_DIFFUSE_REFLECTANCE, sp).xyz,
+        // pbrt-v4 DiffuseMaterial clamps the reflectance to [0, 1].
+        lobe_add(b, lobe_new(LOBE_LAMBERT_R,
+                             scale * clamp(slot_value(m, SLOT_DIFFUSE_REFLECTANCE, sp).xyz, 0.0, 1.0),
                              BSDF_REFLECTION | BSDF_DIFFUSE, 0u));
       break;
 #if BSDF_ALL_MATERIALS
@@ -232,8 +235,8 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
     case MATERIAL_DIFFUSE_TRANSMISSION:
       if (has_feature(FEATURE_MAT_DIFFUSE_TRANSMISSION)) {
         float s = slot_value(m, SLOT_DT_SCALE, sp).x;
-        vec3 R = s * slot_value(m, SLOT_DT_REFLECTANCE, sp).xyz;
-        vec3 T = s * slot_value(m, SLOT_DT_TRANSMITTANCE, sp).xyz;
+        vec3 R = clamp(s * slot_value(m, SLOT_DT_REFLECTANCE, sp).xyz, 0.0, 1.0);  // as pbrt-v4
+        vec3 T = clamp(s * slot_value(m, SLOT_DT_TRANSMITTANCE, sp).xyz, 0.0, 1.0);
         uint flags = (nonzero(R) ? (BSDF_REFLECTION | BSDF_DIFFUSE) : 0u) |
                      (nonzero(T) ? (BSDF_TRANSMISSION | BSDF_DIFFUSE) : 0u);
         Lobe L = lobe_new(LOBE_DIFFUSE_TRANSMISSION, scale, flags, 0u);
@@ -252,12 +255,15 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
         if (cd) {
           L.p0 = vec4(mf_alphas(slot_alpha(m, SLOT_CD_UROUGH, sp), slot_alpha(m, SLOT_CD_VROUGH, sp)),
                       slot_value(m, SLOT_CD_ETA, sp).x, slot_value(m, SLOT_CD_THICKNESS, sp).x);
-          L.p1 = vec4(slot_value(m, SLOT_CD_ALBEDO, sp).xyz, slot_value(m, SLOT_CD_G, sp).x);
-          L.p2.xyz = slot_value(m, SLOT_CD_REFLECTANCE, sp).xyz;
+          // pbrt-v4 clamps reflectance and albedo to [0, 1] and g to [-1, 1].
+          L.p1 = vec4(clamp(slot_value(m, SLOT_CD_ALBEDO, sp).xyz, 0.0, 1.0),
+                      clamp(slot_value(m, SLOT_CD_G, sp).x, -1.0, 1.0));
+          L.p2.xyz = clamp(slot_value(m, SLOT_CD_REFLECTANCE, sp).xyz, 0.0, 1.0);
         } else {
           L.p0 = vec4(mf_alphas(slot_alpha(m, SLOT_CC_IF_UROUGH, sp), slot_alpha(m, SLOT_CC_IF_VROUGH, sp)),
                       slot_value(m, SLOT_CC_IF_ETA, sp).x, slot_value(m, SLOT_CC_THICKNESS, sp).x);
-          L.p1 = vec4(slot_value(m, SLOT_CC_ALBEDO, sp).xyz, slot_value(m, SLOT_CC_G, sp).x);
+          L.p1 = vec4(clamp(slot_value(m, SLOT_CC_ALBEDO, sp).xyz, 0.0, 1.0),
+                      clamp(slot_value(m, SLOT_CC_G, sp).x, -1.0, 1.0));
           vec3 eta, k;
           conductor_eta_k(m, SLOT_CC_ETA, SLOT_CC_K, SLOT_CC_REFLECTANCE, sp, eta, k);
           // pbrt-v4 CoatedConductorMaterial: conductor eta and k relative to the coat's eta
@@ -344,42 +350,66 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
   }
 }
 
-// The BSDF of the already mix-resolved material m at sp (docs/materials-spec.md section 3):
-// its lobes, or those of both MIX_WEIGHTED children with weights x (1 - amount) and x amount.
-Bsdf bsdf_build(uint m, SurfacePoint sp) {
-  Bsdf b = Bsdf(0u, 0u, m, MATERIAL_NONE);
-  if (!material_valid(m)) {
-    b.material = INVALID_INDEX;
-    return b;
-  }
-  b.type = materials[m].type;
+// The BSDF of material `material` at sp seen from wo_world (-ray direction): stochastic mixes
+// resolved (docs/materials-spec.md section 4: INVALID_INDEX / MATERIAL_NONE for an invalid
+// index or more than 16 nested mixes), then, if `lobes`, the lobes of the chosen material
+// (section 3), or those of both MIX_WEIGHTED children with weights x (1 - amount) and
+// x amount. One loop visits each material involved and resolves its slots at one call site
+// of slots_resolve (see slot_cache), and add_material_lobes has one call site too.
+Bsdf bsdf_at(uint material, SurfacePoint sp, vec3 wo_world, bool lobes) {
+  Bsdf b = Bsdf(0u, 0u, INVALID_INDEX, MATERIAL_NONE);
+  uint m = material;
 #if !BSDF_ALL_MATERIALS
-  add_material_lobes(b, m, vec3(1.0), sp);
-#else
-  uint count = 1u;
-  vec3 amount = vec3(0.0);
-  if (has_feature(FEATURE_MAT_MIX_WEIGHTED) && b.type == MATERIAL_MIX_WEIGHTED) {
-    count = 2u;
-    amount = clamp(slot_value(m, SLOT_MIX_AMOUNT, sp).xyz, 0.0, 1.0);
+  if (!material_valid(m)) return b;
+  b.material = m;
+  b.type = materials[m].type;
+  if (lobes) {
+    slots_resolve(m, sp);
+    add_material_lobes(b, m, vec3(1.0), sp);
   }
-  // One call site for the material switch, whatever the count.
-  [[dont_unroll]] for (uint c = 0u; c < count; ++c) {
-    uint mc = m;
-    vec3 scale = vec3(1.0);
-    if (count == 2u) {
-      mc = c == 0u ? materials[m].aux0 : materials[m].aux1;
-      scale = c == 0u ? vec3(1.0) - amount : amount;
+#else
+  uint level = 0u;              // stochastic mixes passed
+  bool resolved = false;        // m is the chosen (non-stochastic-mix) material
+  uint pending = INVALID_INDEX; // second child of a weighted mix, still to add
+  vec3 scale = vec3(1.0), pending_scale = vec3(0.0);
+  [[dont_unroll]] for (uint step = 0u; step < 20u; ++step) {
+    if (!material_valid(m)) return Bsdf(0u, 0u, INVALID_INDEX, MATERIAL_NONE);
+    uint type = materials[m].type;
+    bool stochastic = has_feature(FEATURE_MAT_MIX) && type == MATERIAL_MIX;
+    if (resolved && !lobes) break;
+    if (!resolved && !stochastic) {
+      resolved = true;
+      b.material = m;
+      b.type = type;
+      if (!lobes) break;
     }
-    add_material_lobes(b, mc, scale, sp);
+    slots_resolve(m, sp);
+    if (stochastic) {
+      if (level == 16u) return Bsdf(0u, 0u, INVALID_INDEX, MATERIAL_NONE);
+      ++level;
+      float a = slot_value(m, SLOT_MIX_AMOUNT, sp).x;
+      if (a <= 0.0) m = materials[m].aux0;
+      else if (a >= 1.0) m = materials[m].aux1;
+      else m = a < mix_hash(sp.p, wo_world, m) ? materials[m].aux0 : materials[m].aux1;
+      continue;
+    }
+    if (has_feature(FEATURE_MAT_MIX_WEIGHTED) && type == MATERIAL_MIX_WEIGHTED &&
+        m == b.material) {
+      vec3 amount = clamp(slot_value(m, SLOT_MIX_AMOUNT, sp).xyz, 0.0, 1.0);
+      pending = materials[m].aux1;
+      pending_scale = amount;
+      scale = vec3(1.0) - amount;
+      m = materials[m].aux0;
+      continue;
+    }
+    add_material_lobes(b, m, scale, sp);
+    if (pending == INVALID_INDEX) break;
+    m = pending;
+    scale = pending_scale;
+    pending = INVALID_INDEX;
   }
 #endif
   return b;
-}
-
-// The BSDF of material `material` at sp seen from wo_world (-ray direction): stochastic mixes
-// resolved (section 4), then its lobes (section 3).
-Bsdf bsdf_at(uint material, SurfacePoint sp, vec3 wo_world) {
-  return bsdf_build(mix_resolve(material, sp, wo_world), sp);
 }
 
 // Union of the lobe flags (BSDF_*); non-specular if it has BSDF_DIFFUSE or BSDF_GLOSSY.

@@ -12,17 +12,19 @@
 #include "lights.glsl"
 #include "bsdf.glsl"
 
-// Radiance of an escaped ray from the infinite lights, MIS-weighted against light sampling
-// unless the previous vertex could not sample lights (camera or specular).
-vec3 escaped_radiance(bool unweighted, float pdf_prev) {
+// Radiance of an escaped ray of direction d from the infinite lights (uniform and
+// environment maps, through the one infinite_light_le call site), MIS-weighted against light
+// sampling unless the previous vertex could not sample lights (camera or specular).
+vec3 escaped_radiance(vec3 d, bool unweighted, float pdf_prev) {
   vec3 L = vec3(0.0);
-  if ((FEATURES & FEATURE_LIGHT_INFINITE) != 0u) {
+  if ((FEATURES & (FEATURE_LIGHT_INFINITE | FEATURE_LIGHT_INFINITE_IMAGE)) != 0u) {
     uint n = min(globals.counts.y, MAX_INFINITE_LIGHTS);
-    for (uint k = 0u; k < n; ++k) {
+    [[dont_unroll]] for (uint k = 0u; k < n; ++k) {
       uint li = globals.infinite_lights[k];
-      // Uniform infinite light: Le = L in every direction, light-sampling pdf 1 / (4 pi).
-      float w = unweighted ? 1.0 : power_heuristic(pdf_prev, lights[li].pmf / (4.0 * PI));
-      L += w * lights[li].L.rgb;
+      float pl;
+      vec3 Le = infinite_light_le(li, d, pl);
+      float w = unweighted ? 1.0 : power_heuristic(pdf_prev, pl);
+      L += w * Le;
     }
   }
   return L;
@@ -52,10 +54,12 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
     Hit hit = intersect_closest(ray);
     ++rays;
     if (hit.prim == INVALID_INDEX) {
-      L += beta * escaped_radiance(depth == 0u || specular, pdf_prev);
+      L += beta * escaped_radiance(ray.d, depth == 0u || specular, pdf_prev);
       break;
     }
-    SurfacePoint sp = surface_point(ray, hit);
+    // The camera ray's differentials serve its first hit (and through interfaces); later
+    // hits approximate the footprint (docs/textures-spec.md section 3).
+    SurfacePoint sp = surface_point(ray, hit, depth == 0u, cr.rx_o, cr.rx_d, cr.ry_o, cr.ry_d);
     vec3 wo = -ray.d;
 
     // Emission of an area light hit by the path.
@@ -74,10 +78,10 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
 
     // Interface (no surface): the path passes through with depth unchanged (pbrt-v4
     // PathIntegrator's SkipIntersection; at most 64 crossings).
-    uint material = mix_resolve(sp.material, sp, wo);
+    // The BSDF (mixes resolved; lobes only if the path goes on from here).
+    Bsdf bsdf = bsdf_at(sp.material, sp, wo, depth < max_depth);
 #if BSDF_ALL_MATERIALS
-    if (has_feature(FEATURE_MAT_INTERFACE) && material_valid(material) &&
-        materials[material].type == MATERIAL_INTERFACE) {
+    if (has_feature(FEATURE_MAT_INTERFACE) && bsdf.type == MATERIAL_INTERFACE) {
       if (crossings == 64u) break;
       ++crossings;
       specular = true;
@@ -89,7 +93,6 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
     uint dim = DIM_BOUNCE_BASE + DIM_BOUNCE_STRIDE * depth;
     ++depth;
 
-    Bsdf bsdf = bsdf_build(material, sp);
     vec3 wo_l = to_local(sp, wo);
     vec3 ng_l = to_local(sp, sp.ng);
 

@@ -6,9 +6,11 @@
 #include "math.glsl"
 #include "sampling.glsl"
 #include "surface.glsl"
+#include "envmap.glsl"
 
 const uint FEATURE_ANY_LIGHT = FEATURE_LIGHT_POINT | FEATURE_LIGHT_SPOT | FEATURE_LIGHT_DISTANT |
-                               FEATURE_LIGHT_INFINITE | FEATURE_LIGHT_AREA;
+                               FEATURE_LIGHT_INFINITE | FEATURE_LIGHT_AREA |
+                               FEATURE_LIGHT_INFINITE_IMAGE;
 
 // Below this sin^2 of the cone half-angle (1.5 degrees) the sphere cone sampling switches to
 // a Taylor expansion (pbrt-v4 6.2.4 Sphere::Sample).
@@ -132,6 +134,14 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
         ls.at_infinity = true;
       }
       break;
+    case LIGHT_INFINITE_IMAGE:
+      // Environment map: the MIS-compensated distribution, as pbrt-v4's path tracer asks
+      // (allowIncompletePDF = true; docs/textures-spec.md section 6). The only env_sample
+      // call of the render shader.
+      if ((FEATURES & FEATURE_LIGHT_INFINITE_IMAGE) != 0u) {
+        ls.at_infinity = env_sample(li, u, true, ls.wi, ls.pdf, ls.Li);
+      }
+      break;
     case LIGHT_AREA_TRIANGLE:
       if ((FEATURES & FEATURE_LIGHT_AREA) != 0u && (FEATURES & FEATURE_TRIANGLES) != 0u) {
         vec3 ns_unused;
@@ -223,6 +233,27 @@ float light_pdf(uint li, vec3 p_prev, vec3 ng_prev, float m_prev, vec3 q, vec3 n
     return one_minus > 0.0 ? 1.0 / (2.0 * PI * one_minus) : 0.0;
   }
   return 0.0;
+}
+
+// Radiance of infinite light li arriving along an escaped ray of direction w, and in pl the
+// pmf-weighted solid-angle pdf with which light_sample would have produced w (MIS weight,
+// docs/path-spec.md section 7; pbrt-v4 Le and PMF * PDF_Li with allowIncompletePDF = true).
+// One function for every infinite tag, so that env_eval (Le and pdf) has one call site.
+vec3 infinite_light_le(uint li, vec3 w, out float pl) {
+  pl = 0.0;
+  uint type = lights[li].type;
+  if ((FEATURES & FEATURE_LIGHT_INFINITE_IMAGE) != 0u && type == LIGHT_INFINITE_IMAGE) {
+    float pdf;
+    vec3 le = env_eval(li, w, true, pdf);
+    pl = lights[li].pmf * pdf;
+    return le;
+  }
+  if ((FEATURES & FEATURE_LIGHT_INFINITE) != 0u && type == LIGHT_INFINITE_UNIFORM) {
+    // Uniform infinite light: Le = L in every direction, light-sampling pdf 1 / (4 pi).
+    pl = lights[li].pmf / (4.0 * PI);
+    return lights[li].L.rgb;
+  }
+  return vec3(0.0);
 }
 
 // Shadow ray from shading point p (geometric normal ng, magnitude bound m) towards a light

@@ -6,6 +6,7 @@
 #include "math.glsl"
 #include "sampling.glsl"
 #include "intersect.glsl"
+#include "texture.glsl"
 
 // A point on a surface: position, geometric normal (after the flips of section 4), shading
 // normal with its tangents (t1, t2) = (s, t) of the shading frame (docs/materials-spec.md
@@ -21,6 +22,7 @@ struct SurfacePoint {
   float m;
   vec3 t1;
   vec3 t2;
+  TexCtx tex;  // texture context (docs/textures-spec.md 1, 3); set when FEATURE_TEXTURES
 };
 
 // cross(a, b) spelled out and precise (no fma contraction), as the CPU computes it.
@@ -49,6 +51,57 @@ vec3 triangle_dpdu(uint tri) {
   if (abs(det) < 1e-9) return vec3(0.0);
   precise vec3 dpdu = (duv12.y * dp02 - duv02.y * dp12) / det;
   return dpdu;
+}
+
+// uv and dpdv of triangle tri at barycentrics b (docs/textures-spec.md 1): uv interpolated
+// from the mesh's uv or (0,0), (1,0), (1,1); dpdv zero for a degenerate uv map.
+void triangle_uv(uint tri, vec3 b, out vec2 uv, out vec3 dpdv) {
+  Triangle T = triangles[tri];
+  Vertex a = vertices[T.v0], bb = vertices[T.v1], c = vertices[T.v2];
+  vec2 uv0 = vec2(0.0, 0.0), uv1 = vec2(1.0, 0.0), uv2 = vec2(1.0, 1.0);
+  if ((meshes[T.mesh].flags & SHAPE_FLAG_HAS_UV) != 0u) {
+    uv0 = vec2(a.p_u.w, a.n_v.w);
+    uv1 = vec2(bb.p_u.w, bb.n_v.w);
+    uv2 = vec2(c.p_u.w, c.n_v.w);
+  }
+  precise vec2 iuv = b.x * uv0 + b.y * uv1 + b.z * uv2;
+  uv = iuv;
+  precise vec2 duv02 = uv0 - uv2;
+  precise vec2 duv12 = uv1 - uv2;
+  precise vec3 dp02 = a.p_u.xyz - c.p_u.xyz;
+  precise vec3 dp12 = bb.p_u.xyz - c.p_u.xyz;
+  precise float det = duv02.x * duv12.y - duv02.y * duv12.x;
+  if (abs(det) < 1e-9) {
+    dpdv = vec3(0.0);
+    return;
+  }
+  precise vec3 dv = (duv02.x * dp12 - duv12.x * dp02) / det;
+  dpdv = dv;
+}
+
+// uv and dpdv of sphere sph at p (docs/textures-spec.md 1, pbrt-v4 Sphere, full sphere):
+// u = phi / 2 pi, v = 1 - theta / pi, dpdv = -pi (z cos phi, z sin phi, -r sin theta).
+void sphere_uv(uint sph, vec3 p, out vec2 uv, out vec3 dpdv) {
+  Sphere S = spheres[sph];
+  float r = S.center_radius.w;
+  precise vec3 pc = p - S.center_radius.xyz;
+  float qx = dot_exact(pc, S.axis_x.xyz);
+  float qy = dot_exact(pc, S.axis_y.xyz);
+  float qz = dot_exact(pc, S.axis_z.xyz);
+  float phi = atan2_accurate(qy, qx);
+  if (phi < 0.0) phi += 2.0 * PI;
+  float cos_theta = clamp(qz / r, -1.0, 1.0);
+  float theta = acos_accurate(cos_theta);
+  precise float v = (theta - PI) / (0.0 - PI);
+  uv = vec2(phi * (1.0 / (2.0 * PI)), v);
+  precise float zr = sqrt(qx * qx + qy * qy);
+  float cos_phi = zr > 0.0 ? qx / zr : 1.0, sin_phi = zr > 0.0 ? qy / zr : 0.0;
+  precise float sin_theta = sqrt(max(0.0, 1.0 - cos_theta * cos_theta));
+  precise float dvx = -PI * (qz * cos_phi);
+  precise float dvy = -PI * (qz * sin_phi);
+  precise float dvz = -PI * (-r * sin_theta);
+  precise vec3 d = dvx * S.axis_x.xyz + dvy * S.axis_y.xyz + dvz * S.axis_z.xyz;
+  dpdv = d;
 }
 
 // dpdu of sphere sph at p (docs/materials-spec.md section 1.1): in the object frame with
@@ -128,7 +181,10 @@ vec3 sphere_normal(uint sph, vec3 n) {
 
 // Surface point of a closest hit (docs/path-spec.md section 4). Triangles: interpolated
 // position, b0 = 1 - b1 - b2. Spheres: o + t d re-projected onto the sphere (pbrt-v4 6.2.2).
-SurfacePoint surface_point(Ray ray, Hit hit) {
+// With FEATURE_TEXTURES, also the texture context with its footprint (docs/textures-spec.md
+// 3): from the camera ray's differentials when has_diff, else approximated.
+SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, vec3 rx_o, vec3 rx_d, vec3 ry_o,
+                           vec3 ry_d) {
   SurfacePoint sp;
   sp.material = INVALID_INDEX;
   sp.light = INVALID_INDEX;
@@ -136,7 +192,10 @@ SurfacePoint surface_point(Ray ray, Hit hit) {
   sp.ng = vec3(0.0, 0.0, 1.0);
   sp.ns = sp.ng;
   sp.m = 0.0;
+  sp.tex = TexCtx(vec3(0.0), vec3(0.0, 0.0, 1.0), vec2(0.0), vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0);
   vec3 dpdu = vec3(0.0);
+  vec3 dpdv = vec3(0.0);
+  vec2 uv = vec2(0.0);
   if ((hit.prim & PRIM_SPHERE_BIT) != 0u) {
     if ((FEATURES & FEATURE_SPHERES) != 0u) {
       uint sph = hit.prim & PRIM_INDEX_MASK;
@@ -152,6 +211,7 @@ SurfacePoint surface_point(Ray ray, Hit hit) {
       sp.material = spheres[sph].material;
       sp.light = spheres[sph].light;
       dpdu = sphere_dpdu(sph, sp.p);
+      if ((FEATURES & FEATURE_TEXTURES) != 0u) sphere_uv(sph, sp.p, uv, dpdv);
     }
   } else if ((FEATURES & FEATURE_TRIANGLES) != 0u) {
     uint tri = hit.prim;
@@ -160,8 +220,20 @@ SurfacePoint surface_point(Ray ray, Hit hit) {
     sp.material = m.material;
     sp.light = m.light_base == INVALID_INDEX ? INVALID_INDEX : m.light_base + (tri - m.tri_base);
     dpdu = triangle_dpdu(tri);
+    if ((FEATURES & FEATURE_TEXTURES) != 0u)
+      triangle_uv(tri, vec3(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2), uv, dpdv);
   }
   shading_frame(sp.ns, dpdu, sp.t1, sp.t2);
+  if ((FEATURES & FEATURE_TEXTURES) != 0u) {
+    sp.tex.p = sp.p;
+    sp.tex.n = sp.ng;
+    sp.tex.uv = uv;
+    // docs/textures-spec.md 1: the Duff pair of ng stands in for a degenerate (dpdu, dpdv).
+    vec3 du = dpdu, dv = dpdv;
+    vec3 cr = cross_exact(du, dv);
+    if (cr.x == 0.0 && cr.y == 0.0 && cr.z == 0.0) duff_frame(sp.ng, du, dv);
+    compute_differentials(sp.tex, du, dv, has_diff, ray.o, ray.d, rx_o, rx_d, ry_o, ry_d);
+  }
   return sp;
 }
 

@@ -295,6 +295,7 @@ struct Globals {
   vec4 min_dir_dy;
   uvec4 texture_opts;      // x: TEXOPT_* bits, y: octave cap (0: none), z, w: unused
   uvec4 tex_tables;        // offsets into tex_data (see EWA_LUT_SIZE above)
+  mat4 camera_from_world;  // inverse of world_from_camera (Approximate_dp_dxy)
 };
 
 /// BVH node: interior when b == 0 (children at a and a+1), else leaf over prim_refs[a, a+b).
@@ -436,7 +437,7 @@ BASALT_CONST uint PROBE_ENV = 9u;
 // PROBE_DIFFERENTIALS: texture context at the first hit of the camera ray of pixel
 // (key.z, key.w), sample floatBitsToUint(extra.x) (docs/textures-spec.md 3): key.y = 0: with
 // the camera ray's differentials (bounce 0); 1: as at a later bounce (Approximate_dp_dxy)
-//   out: f0 = (dpdx, dudx), f1 = (dpdy, dudy), f2 = (uv, dvdx, dvdy), f3.xyz = dpdv
+//   out: f0 = (dpdx, dudx), f1 = (dpdy, dudy), f2 = (uv, dvdx, dvdy), f3.xyz = p; u.x = prim
 BASALT_CONST uint PROBE_DIFFERENTIALS = 10u;
 
 /// One probe query.
@@ -460,7 +461,7 @@ struct ProbeOut {
 
 #ifdef __cplusplus
 static_assert(sizeof(ProbeIn) == 96 && sizeof(ProbeOut) == 80, "Probe layout");
-static_assert(sizeof(Globals) == 64 + 4 * 16 + 4 * 16 + 6 * 16, "Globals layout");
+static_assert(sizeof(Globals) == 64 + 4 * 16 + 4 * 16 + 6 * 16 + 64, "Globals layout");
 static_assert(sizeof(BvhNode) == 32 && offsetof(BvhNode, hi) == 16, "BvhNode layout");
 static_assert(sizeof(Triangle) == 16, "Triangle layout");
 static_assert(sizeof(Vertex) == 32, "Vertex layout");

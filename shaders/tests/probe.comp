@@ -47,7 +47,7 @@ void main() {
       r.f1 = vec4(-1.0, 0.0, 0.0, 0.0);
       r.u.y = INVALID_INDEX;
       if (h.prim != INVALID_INDEX) {
-        SurfacePoint sp = surface_point(ray, h);
+        SurfacePoint sp = surface_point(ray, h, false, vec3(0.0), vec3(0.0), vec3(0.0), vec3(0.0));
         Hit h2 = intersect_closest(spawn_ray(sp.p, sp.ng, sp.m, q.extra.xyz));
         r.f1 = hit_record(h2);
         r.u.y = h2.prim;
@@ -81,8 +81,9 @@ void main() {
       sp.m = 0.0;
       sp.t1 = vec3(1.0, 0.0, 0.0);
       sp.t2 = vec3(0.0, 1.0, 0.0);
+      sp.tex = TexCtx(sp.p, sp.ng, vec2(0.0), vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0);
       vec3 wo = q.o_tmax.xyz, wi = q.d.xyz, ng = q.extra2.xyz;
-      Bsdf b = bsdf_at(q.key.y, sp, wo);
+      Bsdf b = bsdf_at(q.key.y, sp, wo, true);
       uint px = q.key.z, py = q.key.w;
       // eval (stream dim 7), pdf (8), sample (9), pdf at the sampled wi (10), through one
       // bsdf_query call site (code size, see bsdf_query).
@@ -102,6 +103,59 @@ void main() {
       r.f3.y = float(b.n);
       r.u = uvec4(bs.flags, bsdf_flags(b), bs.pdf_is_proportional ? 1u : 0u,
                   b.n > 0u ? bsdf_lobe(0u).tag : 0u);
+      break;
+    }
+    case PROBE_TEXTURE: {
+      // tex_eval_rgb / tex_eval_float of texture key.y in a given context (layout.h).
+      TexCtx c = TexCtx(q.o_tmax.xyz, q.d.xyz, vec2(q.o_tmax.w, q.d.w), q.extra.xyz,
+                        q.extra2.xyz, q.extra.w, q.extra2.w, q.extra3.x, q.extra3.y);
+      vec3 v = tex_eval_rgb(q.key.y, c);
+      r.f0.xyz = q.key.z == 1u ? vec3(v.x) : v;
+      break;
+    }
+    case PROBE_NOISE: {
+      // Noise functions at p = o_tmax.xyz (layout.h): 0 Perlin, 1 Shirley's solid noise,
+      // 2 fbm, 3 turbulence, 4 Shirley's turbulence with key.z octaves.
+      vec3 p = q.o_tmax.xyz;
+      if (q.key.y == 0u) r.f0.x = perlin_noise(p);
+      else if (q.key.y == 1u || q.key.y == 4u)  // one call site: noise is the 1-octave plain sum
+        r.f0.x = shirley_noise_sum(p, q.key.y == 4u ? int(q.key.z) : 1, q.key.y == 4u);
+      else if (q.key.y == 2u || q.key.y == 3u)
+        r.f0.x = noise_sum(p, q.d.xyz, q.extra.xyz, q.extra.w, int(q.key.z), q.key.y == 3u);
+      break;
+    }
+    case PROBE_DIFFERENTIALS: {
+      // Texture context at the first hit of the camera ray of pixel (key.z, key.w), sample
+      // floatBitsToUint(extra.x): key.y = 0 with the camera ray's differentials, 1 approximated.
+      CameraRay cr = camera_ray(q.key.z, q.key.w, floatBitsToUint(q.extra.x));
+      Ray cam = Ray(cr.o, FLT_MAX, cr.d);
+      Hit h = intersect_closest(cam);
+      r.u.x = h.prim;
+      if (h.prim != INVALID_INDEX) {
+        SurfacePoint sp = surface_point(cam, h, q.key.y == 0u, cr.rx_o, cr.rx_d, cr.ry_o, cr.ry_d);
+        r.f0 = vec4(sp.tex.dpdx, sp.tex.dudx);
+        r.f1 = vec4(sp.tex.dpdy, sp.tex.dudy);
+        r.f2 = vec4(sp.tex.uv, sp.tex.dvdx, sp.tex.dvdy);
+        r.f3 = vec4(sp.tex.p, 0.0);
+      }
+      break;
+    }
+    case PROBE_ENV: {
+      // Image infinite light key.y (docs/textures-spec.md section 6) at world direction d:
+      // Le and the plain pdf (f0), the compensated pdf (f3.x), and a sample with u = extra.xy
+      // of the PLAIN distribution (pbrt-v4 allowIncompletePDF = false; the render shader
+      // samples the compensated one). A failed sample reports wi, pdf and Le as 0.
+      uint li = q.key.y;
+      r.f0.xyz = env_le(li, q.d.xyz);
+      [[dont_unroll]] for (uint k = 0u; k < 2u; ++k) {  // one env_pdf call site
+        float p = env_pdf(li, q.d.xyz, k == 1u);
+        if (k == 0u) r.f0.w = p; else r.f3.x = p;
+      }
+      vec3 env_wi, env_le_s;
+      float env_p;
+      env_sample(li, q.extra.xy, false, env_wi, env_p, env_le_s);
+      r.f1 = vec4(env_wi, env_p);
+      r.f2 = vec4(env_le_s, 0.0);
       break;
     }
     default:

@@ -21,6 +21,7 @@ struct TestScene {
   explicit TestScene(std::uint32_t w = 8, std::uint32_t h = 8, std::uint32_t max_depth = 5) {
     gpu::Globals& g = t.globals;
     g.world_from_camera = glm::mat4(1.0f);
+    g.camera_from_world = glm::mat4(1.0f);
     g.screen = glm::vec4(-1.0f, 1.0f, -1.0f, 1.0f);
     g.lens = glm::vec4(1.0f, 0.0f, 1e6f, 0.0f);
     g.filter_radius = glm::vec4(0.5f, 0.5f, 0.0f, 0.0f);

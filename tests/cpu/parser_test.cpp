@@ -195,7 +195,7 @@ TEST(Parser, FilmSamplerFilterIntegrator) {
       "\"string filename\" \"out.exr\"\n"
       "Sampler \"independent\" \"integer pixelsamples\" 64 \"integer seed\" 7\n"
       "PixelFilter \"box\"\n"
-      "Integrator \"path\" \"integer maxdepth\" 9 \"bool regularize\" true\n" +
+      "Integrator \"path\" \"integer maxdepth\" 9 \"bool regularize\" false\n" +
       std::string(kSphere));
   EXPECT_EQ(s.film.xres, 320);
   EXPECT_EQ(s.film.yres, 200);
@@ -206,7 +206,7 @@ TEST(Parser, FilmSamplerFilterIntegrator) {
   EXPECT_EQ(s.filter.type, basalt::Filter::Type::Box);
   EXPECT_EQ(s.filter.radius, glm::vec2(0.5f));
   EXPECT_EQ(s.integrator.max_depth, 9);
-  EXPECT_TRUE(s.integrator.regularize);
+  EXPECT_FALSE(s.integrator.regularize);
   EXPECT_TRUE(s.warnings.empty());
 
   s = parse(
@@ -755,13 +755,23 @@ TEST(ParserErrors, UnsupportedTypesAreNamed) {
             "Integrator 'path')");
   EXPECT_EQ(error_of("Film \"fancy\"\n" + std::string(kSphere)),
             "t.pbrt:1:1: error: film 'fancy' is not supported (basalt writes Film 'rgb')");
-  EXPECT_EQ(error_of("WorldBegin\n Texture \"t\" \"spectrum\" \"checkerboard\"\n"),
-            "t.pbrt:2:2: error: textures are not supported yet");
+  EXPECT_EQ(error_of("WorldBegin\n Texture \"t\" \"spectrum\" \"ptex\"\n"),
+            "t.pbrt:2:25: error: ptex textures are not supported (texture \"t\")");
+  EXPECT_EQ(error_of("WorldBegin\n Texture \"t\" \"spectrum\" \"fancy\"\n"),
+            "t.pbrt:2:25: error: unknown texture class \"fancy\"");
   EXPECT_EQ(error_of("WorldBegin\nMaterial \"diffuse\" \"texture reflectance\" \"t\"\n"),
-            "t.pbrt:2:20: error: textures are not supported yet (parameter \"reflectance\" refers "
-            "to texture \"t\")");
-  EXPECT_EQ(error_of("WorldBegin\nLightSource \"infinite\" \"string filename\" \"sky.exr\"\n"),
-            "t.pbrt:2:24: error: image infinite lights not supported yet");
+            "t.pbrt:2:20: error: parameter \"reflectance\": spectrum texture \"t\" is not defined");
+  // pbrt-v4's regularisation is refused where it is asked for, never ignored.
+  EXPECT_EQ(error_of("Integrator \"path\" \"bool regularize\" true\n" + std::string(kSphere)),
+            "t.pbrt:1:19: error: \"regularize\" true is not supported (basalt does not "
+            "regularize BSDFs)");
+  EXPECT_EQ(error_of("Film \"rgb\" \"float maxcomponentvalue\" 10\n" + std::string(kSphere)),
+            "t.pbrt:1:12: error: \"maxcomponentvalue\" is not supported (basalt does not clamp "
+            "samples; remove it or set it to infinity)");
+  EXPECT_EQ(error_of("WorldBegin\nLightSource \"infinite\" \"point3 portal\" "
+                     "[ 0 0 0  1 0 0  1 1 0  0 1 0 ]\n"),
+            "t.pbrt:2:24: error: portal infinite lights (parameter \"portal\") are not "
+            "supported yet");
   EXPECT_EQ(error_of("WorldBegin\nLightSource \"point\" \"spectrum I\" \"stdillum-D65\"\n"),
             "t.pbrt:2:21: error: unknown named spectrum \"stdillum-D65\" for parameter \"I\" "
             "(basalt knows metal-Ag-eta, metal-Ag-k, metal-Al-eta, metal-Al-k, metal-Au-eta, "
@@ -1194,11 +1204,9 @@ TEST(MaterialErrors, LocatedMessages) {
   EXPECT_EQ(error_of(deep), "t.pbrt:19:1: error: mix materials nested more than 16 deep");
 
   EXPECT_EQ(error_of("WorldBegin\nMaterial \"conductor\" \"texture eta\" \"rust\"\n"),
-            "t.pbrt:2:22: error: textures are not supported yet (parameter \"eta\" refers to "
-            "texture \"rust\")");
+            "t.pbrt:2:22: error: parameter \"eta\": spectrum texture \"rust\" is not defined");
   EXPECT_EQ(error_of("WorldBegin\nMaterial \"dielectric\" \"texture roughness\" \"r\"\n"),
-            "t.pbrt:2:23: error: textures are not supported yet (parameter \"uroughness\" refers "
-            "to texture \"r\")");
+            "t.pbrt:2:23: error: parameter \"uroughness\": float texture \"r\" is not defined");
   EXPECT_EQ(error_of("WorldBegin\nMaterial \"diffuse\" \"string normalmap\" \"n.png\"\n"),
             "t.pbrt:2:20: error: normal maps are not supported yet");
   EXPECT_EQ(error_of("WorldBegin\nMaterial \"plastic\" \"texture bumpmap\" \"b\"\n"),

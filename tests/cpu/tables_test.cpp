@@ -454,6 +454,12 @@ TEST(Tables, MaterialsFromScene) {
   mix.mix[0] = 4;
   mix.mix[1] = 5;
   s.materials = {plastic, measured_a, measured_b, mix, tt1, tt2};
+  // Feature bits come from the materials shapes reach (and, through mixes, their children).
+  for (int m : {0, 1, 3}) {
+    Shape sh;
+    sh.material = m;
+    s.shapes.push_back(sh);
+  }
   SceneTables t = build_tables(s);
   ASSERT_EQ(t.materials.size(), 6u);
   EXPECT_EQ(t.materials[0].type, gpu::MATERIAL_PLASTIC);

@@ -52,19 +52,17 @@ std::vector<double> block_means(const std::vector<glm::vec3>& img, int w, int h,
   return m;
 }
 
-class PbrtReference : public ::testing::TestWithParam<std::string> {};
-
-TEST_P(PbrtReference, SlowGpuAgreesWithPbrtV4) {
-  const std::string name = GetParam();
+/// Renders scene \p name on \p side and compares it with pbrt-v4's image.
+void check_against_pbrt(const std::string& name, Side side) {
   const Image ref = read_exr(source_path("tests/refs/" + name + ".exr"));
   SceneTables t = tables_from_file(source_path("scenes/" + name + ".pbrt"));
   ASSERT_EQ(int(t.width()), ref.width) << "reference resolution differs from the scene's";
   ASSERT_EQ(int(t.height()), ref.height);
   const std::uint32_t spp = 64;
   set_seed(t, 11);
-  const std::vector<glm::vec3> a = render(Side::Gpu, t, spp);
+  const std::vector<glm::vec3> a = render(side, t, spp);
   set_seed(t, 12);
-  const std::vector<glm::vec3> b = render(Side::Gpu, t, spp);
+  const std::vector<glm::vec3> b = render(side, t, spp);
   ASSERT_TRUE(all_finite(a) && all_finite(b));
   int bw = 0, bh = 0;
   const std::vector<double> ma = block_means(a, ref.width, ref.height, bw, bh);
@@ -98,16 +96,23 @@ TEST_P(PbrtReference, SlowGpuAgreesWithPbrtV4) {
     sa += 0.5 * (ma[i] + mb[i]);
     sr += mr[i];
   }
-  std::printf("  %s: %.2f%% of %d blocks with |z| > 4 (worst %.1f), mean %.5f vs pbrt-v4 %.5f\n",
-              name.c_str(), 100.0 * frac, bw * bh, worst, sa / mr.size(), sr / mr.size());
+  std::printf("  %s (%s): %.2f%% of %d blocks with |z| > 4 (worst %.1f), mean %.5f vs pbrt-v4 %.5f\n",
+              name.c_str(), side_name(side).c_str(), 100.0 * frac, bw * bh, worst, sa / mr.size(), sr / mr.size());
+  if (outliers > 0) std::printf("%s", zmap.c_str());
   if (frac > 0.02) {
-    std::printf("%s", zmap.c_str());
     std::filesystem::create_directories("pbrt-reference-failures");
-    write_image("pbrt-reference-failures/" + name + "-basalt.exr", Image{ref.width, ref.height, a});
+    write_image("pbrt-reference-failures/" + name + "-" + side_name(side) + ".exr",
+                Image{ref.width, ref.height, a});
   }
   EXPECT_LE(frac, 0.02) << name << ": blocks disagree with pbrt-v4 beyond noise";
   EXPECT_NEAR(sa / sr, 1.0, 0.03) << name << ": image mean differs from pbrt-v4's";
 }
+
+class PbrtReference : public ::testing::TestWithParam<std::string> {};
+
+// The shader and, independently, the CPU reference against pbrt-v4.
+TEST_P(PbrtReference, SlowGpuAgreesWithPbrtV4) { check_against_pbrt(GetParam(), Side::Gpu); }
+TEST_P(PbrtReference, SlowCpuAgreesWithPbrtV4) { check_against_pbrt(GetParam(), Side::Cpu); }
 
 INSTANTIATE_TEST_SUITE_P(Refs, PbrtReference, ::testing::ValuesIn(reference_scenes()),
                          [](const ::testing::TestParamInfo<std::string>& i) {

@@ -1,0 +1,33 @@
+// Image infinite lights (environment maps) of the CPU reference: pbrt-v4 ImageInfiniteLight
+// over the tables of docs/textures-spec.md section 6 (the GLSL twin is shaders/include/envmap.glsl).
+#pragma once
+#include <glm/glm.hpp>
+
+#include "scene/tables.h"
+
+namespace basalt::cpu {
+
+/// \brief pbrt-v4 EqualAreaSquareToSphere (util/math.cpp): point of [0,1]^2 to a unit direction
+///        (textures-spec section 6 gives the exact float operations).
+glm::vec3 equal_area_square_to_sphere(glm::vec2 p);
+
+/// \brief pbrt-v4 EqualAreaSphereToSquare (util/math.cpp): unit direction to [0,1]^2, with the
+///        polynomial atan evaluated without fma.
+glm::vec2 equal_area_sphere_to_square(glm::vec3 d);
+
+/// \brief Radiance of image infinite light \p l arriving from world direction \p w_world (unit,
+///        pointing away from the scene): pbrt-v4 ImageInfiniteLight::Le.
+glm::vec3 env_le(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world);
+
+/// \brief Solid-angle pdf with which env_sample produces \p w_world: pbrt-v4
+///        ImageInfiniteLight::PDF_Li; \p compensated selects the MIS-compensated distribution
+///        (allowIncompletePDF = true, what the path tracer uses).
+float env_pdf(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world, bool compensated);
+
+/// \brief pbrt-v4 ImageInfiniteLight::SampleLi: direction \p wi (world), solid-angle \p pdf and
+///        radiance \p le for u = (u0, u1) (u0 picks the column, u1 the row). Returns false (and
+///        leaves the outputs 0) when the map pdf is 0.
+bool env_sample(const SceneTables& s, const gpu::Light& l, glm::vec2 u, bool compensated,
+                glm::vec3& wi, float& pdf, glm::vec3& le);
+
+}  // namespace basalt::cpu

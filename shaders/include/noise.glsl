@@ -1,0 +1,195 @@
+// pbrt-v4's Perlin noise and its sums (docs/textures-spec.md; pbrt-v4 src/pbrt/util/noise.cpp,
+// Perlin 2002 "Improving Noise"); the CPU twin is host/cpu/noise.cpp. Needs bindings.glsl.
+#ifndef BASALT_NOISE_GLSL
+#define BASALT_NOISE_GLSL
+
+#include "math.glsl"
+#include "trig.glsl"
+
+// Permutation entry i of the 512-entry table in tex_data.
+int noise_perm(int i) { return int(tex_data[globals.tex_tables.x + uint(i)]); }
+
+// Perlin's gradient of hash h at offset (dx, dy, dz) (pbrt-v4 Grad).
+float noise_grad(int x, int y, int z, float dx, float dy, float dz) {
+  int h = noise_perm(noise_perm(noise_perm(x) + y) + z) & 15;
+  float u = (h < 8 || h == 12 || h == 13) ? dx : dy;
+  float v = (h < 4 || h == 12 || h == 13) ? dy : dz;
+  precise float g = ((h & 1) != 0 ? -u : u) + ((h & 2) != 0 ? -v : v);
+  return g;
+}
+
+// Quintic fade 6t^5 - 15t^4 + 10t^3, powers rounded as pbrt-v4's Pow<n>.
+float noise_fade(float t) {
+  precise float t2 = t * t;
+  precise float t3 = t2 * t;
+  precise float t4 = t2 * t2;
+  precise float t5 = t4 * t;
+  precise float w = 6.0 * t5 - 15.0 * t4 + 10.0 * t3;
+  return w;
+}
+
+// pbrt-v4 Lerp(t, a, b) = (1 - t) a + t b, uncontracted.
+float noise_lerp(float t, float a, float b) {
+  precise float r = (1.0 - t) * a + t * b;
+  return r;
+}
+
+// fmod(x, 2^30) of pbrt-v4 Noise with exact operations (as the CPU).
+float noise_wrap30(float x) {
+  const float k = 1073741824.0;
+  precise float r = abs(x) < k ? x : x - k * trunc(x / k);
+  return r;
+}
+
+// pbrt-v4 Noise(p): 0 at lattice points, |n| <= 1.
+float perlin_noise(vec3 p) {
+  float x = noise_wrap30(p.x), y = noise_wrap30(p.y), z = noise_wrap30(p.z);
+  float fx = floor(x), fy = floor(y), fz = floor(z);
+  precise float dx = x - fx;
+  precise float dy = y - fy;
+  precise float dz = z - fz;
+  int ix = int(fx) & 255, iy = int(fy) & 255, iz = int(fz) & 255;
+  precise float dx1 = dx - 1.0;
+  precise float dy1 = dy - 1.0;
+  precise float dz1 = dz - 1.0;
+  float w000 = noise_grad(ix, iy, iz, dx, dy, dz);
+  float w100 = noise_grad(ix + 1, iy, iz, dx1, dy, dz);
+  float w010 = noise_grad(ix, iy + 1, iz, dx, dy1, dz);
+  float w110 = noise_grad(ix + 1, iy + 1, iz, dx1, dy1, dz);
+  float w001 = noise_grad(ix, iy, iz + 1, dx, dy, dz1);
+  float w101 = noise_grad(ix + 1, iy, iz + 1, dx1, dy, dz1);
+  float w011 = noise_grad(ix, iy + 1, iz + 1, dx, dy1, dz1);
+  float w111 = noise_grad(ix + 1, iy + 1, iz + 1, dx1, dy1, dz1);
+  float wx = noise_fade(dx), wy = noise_fade(dy), wz = noise_fade(dz);
+  float x00 = noise_lerp(wx, w000, w100), x10 = noise_lerp(wx, w010, w110);
+  float x01 = noise_lerp(wx, w001, w101), x11 = noise_lerp(wx, w011, w111);
+  float y0 = noise_lerp(wy, x00, x10), y1 = noise_lerp(wy, x01, x11);
+  return noise_lerp(wz, y0, y1);
+}
+
+// Octaves the footprint resolves (pbrt-v4 FBm / Turbulence): clamp(-1 - log2(len2) / 2, 0,
+// max) with the octave cap of Globals.texture_opts.y applied to max (inout).
+float noise_octaves(vec3 dpdx, vec3 dpdy, inout int max_octaves) {
+  uint cap = globals.texture_opts.y;
+  if (cap > 0u) max_octaves = min(max_octaves, int(cap));
+  float len2 = max(dot_exact(dpdx, dpdx), dot_exact(dpdy, dpdy));
+  if (!(len2 > 0.0)) return float(max_octaves);  // log2(0) = -inf
+  if (isinf(len2)) return 0.0;
+  precise float l2 = log_accurate(len2) * 1.44269504088896341;
+  precise float n = -1.0 - l2 / 2.0;
+  return clamp(n, 0.0, float(max_octaves));
+}
+
+// pbrt-v4 SmoothStep(x, a, b).
+float noise_smooth_step(float x, float a, float b) {
+  precise float t = clamp((x - a) / (b - a), 0.0, 1.0);
+  precise float r = t * t * (3.0 - 2.0 * t);
+  return r;
+}
+
+// pbrt-v4 FBm (turb false) or Turbulence (turb true) in one routine, so that a shader that
+// needs both holds one copy (lavapipe inlines every call site): octaves at frequencies 1.99^i
+// with weights omega^i, the last faded in; turbulence sums |noise| and adds 0.2 times the
+// weight of every octave the footprint leaves out (docs/textures-spec.md section 8).
+float noise_sum(vec3 p, vec3 dpdx, vec3 dpdy, float omega, int max_octaves, bool turb) {
+  float n = noise_octaves(dpdx, dpdy, max_octaves);
+  int n_int = int(floor(n));
+  precise float sum = 0.0;
+  precise float lambda = 1.0;
+  precise float o = 1.0;
+  precise float partial = n - float(n_int);
+  float fade = noise_smooth_step(partial, 0.3, 0.7);
+  // Octave i < n_int in full, then the partial one (i == n_int): one noise call site.
+  [[dont_unroll]] for (int i = 0; i <= n_int; ++i) {
+    precise vec3 q = lambda * p;
+    float v = perlin_noise(q);
+    if (turb) v = abs(v);
+    if (i < n_int) {
+      sum += o * v;
+      lambda *= 1.99;  // pbrt-v4's octave step
+      o *= omega;
+    } else if (turb) {
+      sum += o * noise_lerp(fade, 0.2, v);
+    } else {
+      sum += o * fade * v;
+    }
+  }
+  if (turb) {
+    for (int i = n_int; i < max_octaves; ++i) {
+      sum += o * 0.2;
+      o *= omega;
+    }
+  }
+  return sum;
+}
+
+// pbrt-v4 FBm (util/noise.cpp).
+float fbm(vec3 p, vec3 dpdx, vec3 dpdy, float omega, int max_octaves) {
+  return noise_sum(p, dpdx, dpdy, omega, max_octaves, false);
+}
+
+// pbrt-v4 Turbulence (util/noise.cpp).
+float turbulence(vec3 p, vec3 dpdx, vec3 dpdy, float omega, int max_octaves) {
+  return noise_sum(p, dpdx, dpdy, omega, max_octaves, true);
+}
+
+// ---- Shirley's solid noise (docs/textures-spec.md section 7; seed 002 11.1.3, 11.1.4) ------
+// Tables at tex_data[globals.tex_tables.z]: G (256 unit vectors, 768 floats x0 y0 z0 x1 ...),
+// then P (256 floats holding the permutation).
+
+// int(v) of docs/textures-spec.md 4.2 / 7: v clamped to [-2^30, 2^30], then truncated.
+int shirley_int(float v) { return int(clamp(v, -1073741824.0, 1073741824.0)); }
+
+// phi(i) = P[i mod 256], mod non-negative: i & 255 is ((i % 256) + 256) % 256 for every int.
+int shirley_perm(int i) { return int(tex_data[globals.tex_tables.z + 768u + uint(i & 255)]); }
+
+// w(t) = 2|t|^3 - 3|t|^2 + 1 = (2 a3 - 3 a2) + 1 for a = |t| < 1, else 0.
+float shirley_weight(float t) {
+  float a = abs(t);
+  precise float a2 = a * a;
+  precise float a3 = a2 * a;
+  precise float w = (2.0 * a3 - 3.0 * a2) + 1.0;
+  return a < 1.0 ? w : 0.0;
+}
+
+// Shirley's solid noise n(p): the eight lattice corners in the order di, dj, dk (di outer),
+// summed left to right from 0, each ((w(u) w(v)) w(t)) ((Gx u + Gy v) + Gz t). One loop.
+// 0 when a component of p is not finite.
+float shirley_noise(vec3 p) {
+  if (any(isnan(p)) || any(isinf(p))) return 0.0;
+  int ix = shirley_int(floor(p.x)), iy = shirley_int(floor(p.y)), iz = shirley_int(floor(p.z));
+  uint g0 = globals.tex_tables.z;
+  precise float sum = 0.0;
+  [[dont_unroll]] for (int c = 0; c < 8; ++c) {
+    int i = ix + (c >> 2), j = iy + ((c >> 1) & 1), k = iz + (c & 1);
+    precise float u = p.x - float(i);
+    precise float v = p.y - float(j);
+    precise float t = p.z - float(k);
+    uint g = g0 + 3u * uint(shirley_perm(i + shirley_perm(j + shirley_perm(k))));
+    precise float d = (tex_data[g] * u + tex_data[g + 1u] * v) + tex_data[g + 2u] * t;
+    precise float term = ((shirley_weight(u) * shirley_weight(v)) * shirley_weight(t)) * d;
+    sum += term;
+  }
+  return sum;
+}
+
+// sum for i = 0 .. octaves - 1 of n(f p) / f, f = 2^i (doubled each octave, f p one product
+// per component), |n| when turb. The one call site of shirley_noise: plain noise is
+// shirley_noise_sum(p, 1, false) (= n(p): 1 p, / 1 and 0 + are exact).
+float shirley_noise_sum(vec3 p, int octaves, bool turb) {
+  precise float sum = 0.0;
+  precise float f = 1.0;
+  [[dont_unroll]] for (int i = 0; i < octaves; ++i) {
+    precise vec3 q = f * p;
+    float n = shirley_noise(q);
+    precise float term = (turb ? abs(n) : n) / f;
+    sum += term;
+    f *= 2.0;
+  }
+  return sum;
+}
+
+// Shirley's turbulence nt(p) = sum for i < octaves of |n(2^i p)| / 2^i.
+float shirley_turbulence(vec3 p, int octaves) { return shirley_noise_sum(p, octaves, true); }
+
+#endif
