@@ -32,7 +32,8 @@ double since(Clock::time_point t0) {
 constexpr int kExitInput = 1, kExitValidation = 3;
 
 struct Options {
-  std::string scene, device = "auto", stats, mix = "auto", texture_filter = "scene";
+  std::string scene, device = "auto", stats, mix = "auto", texture_filter = "scene",
+              noise_precision = "split";
   int noise_octaves = 0;
   std::vector<std::string> outputs;
   int spp = -1;
@@ -72,7 +73,8 @@ int run(const Options& opt) {
   int filter = -1;
   for (int i = 0; i < 4; ++i)
     if (opt.texture_filter == kFilters[i]) filter = i;
-  st.quality = basalt::apply_texture_knobs(tables, filter, opt.noise_octaves);
+  st.quality = basalt::apply_texture_knobs(tables, filter, opt.noise_octaves,
+                                           opt.noise_precision == "split");
   st.seconds_bvh = times.seconds_bvh;
   st.width = int(tables.width());
   st.height = int(tables.height());
@@ -163,6 +165,10 @@ int main(int argc, char** argv) {
   app.add_option("--noise-octaves", opt.noise_octaves,
                  "cap the octaves of fbm, wrinkled, windy and marble (0: no cap)")
       ->check(CLI::Range(0, 64));
+  app.add_option("--noise-precision", opt.noise_precision,
+                 "noise lookups: split (exact lattice position at any scale, the default) or fp32 "
+                 "(pbrt-v4's arithmetic)")
+      ->check(CLI::IsMember({"split", "fp32"}));
   app.add_option("--stats", opt.stats, "write render statistics as JSON to this file");
   app.add_flag("-q,--quiet", opt.quiet, "no progress bar or summary");
   app.add_flag("--list-devices", list, "list Vulkan devices and exit");

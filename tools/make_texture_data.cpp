@@ -93,6 +93,32 @@ basalt::Image sky() {
   return im;
 }
 
+/// Lat-long environment map, 64 x 32 (pbrt-v3 InfiniteAreaLight layout, textures-spec 6.8:
+/// row 0 is the +z pole, u = phi / 2 pi from +x towards +y): a sky whose blue deepens from
+/// the horizon to the zenith, a dim brown ground below the horizon, and a sun of radiance 80
+/// (texel centres within 0.09 rad of theta 1.05, phi 3.76; a few texels).
+basalt::Image sky_latlong() {
+  basalt::Image im{64, 32, {}};
+  const float ts = 1.05f, ps = 3.76f;
+  const glm::vec3 sun(std::sin(ts) * std::cos(ps), std::sin(ts) * std::sin(ps), std::cos(ts));
+  for (int y = 0; y < im.height; ++y)
+    for (int x = 0; x < im.width; ++x) {
+      const float theta = kPi * (float(y) + 0.5f) / float(im.height);
+      const float phi = 2.0f * kPi * (float(x) + 0.5f) / float(im.width);
+      const glm::vec3 w(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
+                        std::cos(theta));
+      glm::vec3 c;
+      if (w.z > 0.0f) {
+        c = glm::mix(glm::vec3(0.9f, 0.95f, 1.1f), glm::vec3(0.2f, 0.4f, 1.0f), std::sqrt(w.z));
+      } else {
+        c = glm::mix(glm::vec3(0.3f, 0.25f, 0.2f), glm::vec3(0.12f, 0.1f, 0.08f), -w.z);
+      }
+      if (std::acos(std::fmin(1.0f, glm::dot(w, sun))) < 0.09f) c = glm::vec3(80.0f, 72.0f, 58.0f);
+      im.pixels.push_back(c);
+    }
+  return im;
+}
+
 /// HDR float image, 64 x 32: a ramp from 0 to 4 in x with a red/blue split in y.
 basalt::Image hdr_ramp() {
   basalt::Image im{64, 32, {}};
@@ -116,6 +142,7 @@ int main(int argc, char** argv) {
     write_png16(dir + "/tex-rings16.png", 64, rings16(64));
     basalt::write_image(dir + "/tex-ramp.exr", hdr_ramp());
     basalt::write_image(dir + "/env-sky.exr", sky());
+    basalt::write_image(dir + "/env-latlong.exr", sky_latlong());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "basalt_make_texture_data: %s\n", e.what());
     return 1;

@@ -1,13 +1,16 @@
 // Image infinite lights of the CPU reference (docs/textures-spec.md section 6): pbrt-v4
 // ImageInfiniteLight (lights.h) with its PiecewiseConstant2D distributions (util/sampling.h)
 // read from tex_data, equal-area octahedral mapping (util/math.cpp) and nearest lookups with
-// octahedral wrap (util/image.h). fp32, no fma (-ffp-contract=off), sums left to right.
+// octahedral wrap (util/image.h); the lat-long (pbrt-v3 InfiniteAreaLight) and cube (Shirley
+// 11.6) mappings of 6.8, selected by Light.data.w. fp32, no fma (-ffp-contract=off), sums
+// left to right.
 #include "cpu/envmap.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 
+#include "cpu/mipmap.h"
 #include "cpu/sampling.h"
 
 namespace basalt::cpu {
@@ -15,6 +18,13 @@ namespace {
 
 constexpr float FOUR_PI = 4.0f * PI;     // 12.566371f, exact multiple of the float pi
 constexpr float PI_OVER_4 = PI / 4.0f;   // 0.785398185f
+constexpr float TWO_PI = 2.0f * PI;      // 6.28318548f
+constexpr float INV_2PI = 0.159154937f;  // textures-spec 6.8 constants
+constexpr float INV_PI_F = 0.318309886f;
+constexpr float TWO_PI2 = 19.7392088f;   // 2 pi^2
+
+// Light.data.w (textures-spec 6.8).
+constexpr std::uint32_t MAP_EQUAL_AREA = 0, MAP_LATLONG = 1, MAP_CUBE = 2;
 
 /// Rotation into the light's frame: columns of light_from_world summed left to right
 /// (spec section 6, "light frame"; pbrt-v4 renderFromLight.ApplyInverse).
@@ -72,6 +82,31 @@ glm::vec3 image_le(const SceneTables& s, const gpu::Light& l, glm::vec2 uv) {
   const float* t = &s.texels[m->offset + m->channels * (std::size_t(y) * m->width + x)];
   const glm::vec3 rgb = m->channels >= 3 ? glm::vec3(t[0], t[1], t[2]) : glm::vec3(t[0]);
   return glm::vec3(l.L) * glm::max(rgb, glm::vec3(0.0f));
+}
+
+/// Lat-long radiance (textures-spec 6.8): pbrt-v3 MIPMap::Lookup at width 0, the bilinear
+/// lookup of level 0 with repeat wrap in both axes, clamped at 0 and scaled.
+glm::vec3 latlong_le(const SceneTables& s, const gpu::Light& l, glm::vec2 uv) {
+  if (!env_level(s, l)) return glm::vec3(0.0f);
+  const glm::vec3 rgb = mipmap_bilerp(s, l.data.x, uv, gpu::WRAP_REPEAT, false);
+  return glm::vec3(l.L) * glm::max(rgb, glm::vec3(0.0f));
+}
+
+/// Cube-strip texel of face uv (fu, fv) on face `face` (textures-spec 6.8): nearest, column
+/// min(int(fu n), n - 1), row face n + min(int(fv n), n - 1). NaN (a zero direction) reads 0.
+glm::ivec2 cube_texel(int face, float fu, float fv, int n) {
+  const int tx = fu >= 0.0f ? std::min(int(std::fmin(fu, 1.0f) * float(n)), n - 1) : 0;
+  const int ty = fv >= 0.0f ? std::min(int(std::fmin(fv, 1.0f) * float(n)), n - 1) : 0;
+  return glm::ivec2(tx, face * n + ty);
+}
+
+/// Cube radiance: texel (x, y) of the strip, clamped at 0 and scaled.
+glm::vec3 cube_le(const SceneTables& s, const gpu::Light& l, glm::ivec2 t) {
+  const gpu::MipLevel* m = env_level(s, l);
+  if (!m || m->channels < 3) return glm::vec3(0.0f);
+  const int x = std::clamp(t.x, 0, int(m->width) - 1), y = std::clamp(t.y, 0, int(m->height) - 1);
+  const float* p = &s.texels[m->offset + m->channels * (std::size_t(y) * m->width + x)];
+  return glm::vec3(l.L) * glm::max(glm::vec3(p[0], p[1], p[2]), glm::vec3(0.0f));
 }
 
 /// A PiecewiseConstant2D in tex_data (spec section 6 layout), or !valid().
@@ -169,9 +204,81 @@ glm::vec2 equal_area_sphere_to_square(glm::vec3 d) {
   return glm::vec2(0.5f * (u + 1.0f), 0.5f * (v + 1.0f));
 }
 
-// pbrt-v4 ImageInfiniteLight::Le.
+// Lat-long direction to (u, v) (textures-spec 6.8; pbrt-v3 SphericalPhi / SphericalTheta).
+glm::vec2 latlong_dir_to_uv(glm::vec3 wl) {
+  const float theta = std::acos(std::clamp(wl.z, -1.0f, 1.0f));
+  float phi = std::atan2(wl.y, wl.x);
+  if (phi < 0.0f) phi = phi + TWO_PI;
+  return glm::vec2(phi * INV_2PI, theta * INV_PI_F);
+}
+
+// Lat-long (u, v) to the direction (textures-spec 6.8, the sampling formulas).
+glm::vec3 latlong_uv_to_dir(glm::vec2 uv) {
+  const float theta = uv.y * PI, phi = uv.x * TWO_PI;
+  const float sin_t = std::sin(theta), cos_t = std::cos(theta);
+  return glm::vec3(sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t);
+}
+
+// Cube face and face coordinates (textures-spec 6.8; OpenGL's major-axis table).
+int cube_face_coords(glm::vec3 wl, float& a, float& b) {
+  const float ax = std::fabs(wl.x), ay = std::fabs(wl.y), az = std::fabs(wl.z);
+  int face;
+  float m;
+  if (ax >= ay && ax >= az) {
+    face = wl.x > 0.0f ? 0 : 1;
+    m = ax;
+  } else if (ay >= az) {
+    face = wl.y > 0.0f ? 2 : 3;
+    m = ay;
+  } else {
+    face = wl.z > 0.0f ? 4 : 5;
+    m = az;
+  }
+  switch (face) {
+    case 0: a = -wl.z / m; b = -wl.y / m; break;
+    case 1: a = wl.z / m; b = -wl.y / m; break;
+    case 2: a = wl.x / m; b = wl.z / m; break;
+    case 3: a = wl.x / m; b = -wl.z / m; break;
+    case 4: a = wl.x / m; b = -wl.y / m; break;
+    default: a = -wl.x / m; b = -wl.y / m; break;
+  }
+  return face;
+}
+
+// Cube strip (u, v) of a direction.
+glm::vec2 cube_dir_to_uv(glm::vec3 wl) {
+  float a, b;
+  const int face = cube_face_coords(wl, a, b);
+  const float fu = (a + 1.0f) * 0.5f, fv = (b + 1.0f) * 0.5f;
+  return glm::vec2(fu, (float(face) + fv) / 6.0f);
+}
+
+// Cube face uv to the unit direction (textures-spec 6.8, the sampling formulas).
+glm::vec3 cube_face_uv_to_dir(int face, float fu, float fv) {
+  const float a = 2.0f * fu - 1.0f, b = 2.0f * fv - 1.0f;
+  glm::vec3 d;
+  switch (face) {
+    case 0: d = glm::vec3(1.0f, -b, -a); break;
+    case 1: d = glm::vec3(-1.0f, -b, a); break;
+    case 2: d = glm::vec3(a, 1.0f, b); break;
+    case 3: d = glm::vec3(a, -1.0f, -b); break;
+    case 4: d = glm::vec3(a, -b, 1.0f); break;
+    default: d = glm::vec3(-a, -b, -1.0f); break;
+  }
+  return safe_normalize(d);
+}
+
+// pbrt-v4 ImageInfiniteLight::Le; lat-long and cube maps as textures-spec 6.8.
 glm::vec3 env_le(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world) {
   const glm::vec3 wl = safe_normalize(to_light(l, w_world));
+  if (l.data.w == MAP_LATLONG) return latlong_le(s, l, latlong_dir_to_uv(wl));
+  if (l.data.w == MAP_CUBE) {
+    const gpu::MipLevel* m = env_level(s, l);
+    if (!m) return glm::vec3(0.0f);
+    float a, b;
+    const int face = cube_face_coords(wl, a, b);
+    return cube_le(s, l, cube_texel(face, (a + 1.0f) * 0.5f, (b + 1.0f) * 0.5f, int(m->width)));
+  }
   return image_le(s, l, equal_area_sphere_to_square(wl));
 }
 
@@ -179,13 +286,38 @@ glm::vec3 env_le(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world) {
 float env_pdf(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world, bool compensated) {
   const Distribution2D d = distribution(s, l, compensated);
   if (!d.valid()) return 0.0f;
-  const glm::vec2 uv = equal_area_sphere_to_square(safe_normalize(to_light(l, w_world)));
+  const glm::vec3 wl = safe_normalize(to_light(l, w_world));
+  if (l.data.w == MAP_CUBE) {
+    // The pdf of the texel that Le reads (textures-spec 6.8): (tx, ty) of the face lookup.
+    float a, b;
+    const int face = cube_face_coords(wl, a, b);
+    const int n = int(d.nu);
+    if (d.nv != 6 * d.nu) return 0.0f;
+    const glm::ivec2 t = cube_texel(face, (a + 1.0f) * 0.5f, (b + 1.0f) * 0.5f, n);
+    const float integral = d.integral();
+    if (!(integral > 0.0f)) return 0.0f;
+    const float map_pdf = d.cond(std::uint32_t(t.y))[t.x] / integral;
+    const float r = std::sqrt((1.0f + a * a) + b * b);
+    return map_pdf * (r * r * r) / 24.0f;
+  }
+  float sin_t = 1.0f;
+  glm::vec2 uv;
+  if (l.data.w == MAP_LATLONG) {
+    uv = latlong_dir_to_uv(wl);
+    // sin theta from the direction itself (textures-spec 6.8): acos of z near +-1 loses
+    // precision, and sin(acos(-1)) = sin(float pi) < 0.
+    sin_t = std::sqrt(wl.x * wl.x + wl.y * wl.y);
+    if (!(sin_t > 0.0f)) return 0.0f;  // the poles
+  } else {
+    uv = equal_area_sphere_to_square(wl);
+  }
   if (!(uv.x >= 0.0f && uv.x <= 1.0f && uv.y >= 0.0f && uv.y <= 1.0f)) return 0.0f;
   const int iu = std::clamp(int(uv.x * float(d.nu)), 0, int(d.nu) - 1);
   const int iv = std::clamp(int(uv.y * float(d.nv)), 0, int(d.nv) - 1);
   const float integral = d.integral();
   if (!(integral > 0.0f)) return 0.0f;  // pbrt-v4 divides by 0 here
   const float map_pdf = d.cond(std::uint32_t(iv))[iu] / integral;
+  if (l.data.w == MAP_LATLONG) return map_pdf / (TWO_PI2 * sin_t);
   return map_pdf / FOUR_PI;
 }
 
@@ -205,6 +337,32 @@ bool env_sample(const SceneTables& s, const gpu::Light& l, glm::vec2 u, bool com
   const float map_pdf = pdf_u * pdf_v;
   if (map_pdf == 0.0f) return false;
   const glm::vec2 uv(d0, d1);
+  if (l.data.w == MAP_LATLONG) {
+    const float theta = uv.y * PI, phi = uv.x * TWO_PI;
+    const float sin_t = std::sin(theta), cos_t = std::cos(theta);
+    if (!(sin_t > 0.0f)) return false;  // the poles (sin(float pi) < 0)
+    wi = to_world(l, glm::vec3(sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t));
+    pdf = map_pdf / (TWO_PI2 * sin_t);
+    le = latlong_le(s, l, uv);
+    return true;
+  }
+  if (l.data.w == MAP_CUBE) {
+    const int n = int(d.nu);
+    if (d.nv != 6 * d.nu) {
+      wi = glm::vec3(0.0f);
+      return false;
+    }
+    // The face of the sampled row (not re-derived from uv.y, which rounding can push across
+    // a face boundary); fv clamped to [0, 1].
+    const int face = int(iv) / n;
+    const float fv = std::clamp(uv.y * 6.0f - float(face), 0.0f, 1.0f);
+    const float a = 2.0f * uv.x - 1.0f, b = 2.0f * fv - 1.0f;
+    wi = to_world(l, cube_face_uv_to_dir(face, uv.x, fv));
+    const float r = std::sqrt((1.0f + a * a) + b * b);
+    pdf = map_pdf * (r * r * r) / 24.0f;
+    le = cube_le(s, l, cube_texel(face, uv.x, fv, n));
+    return true;
+  }
   wi = to_world(l, equal_area_square_to_sphere(uv));
   pdf = map_pdf / FOUR_PI;
   le = image_le(s, l, uv);

@@ -53,11 +53,29 @@ float smooth_step(float x, float a, float b) {
 
 }  // namespace
 
-float perlin_noise(const SceneTables& s, glm::vec3 p) {
-  const float x = wrap30(p.x), y = wrap30(p.y), z = wrap30(p.z);
-  const float fx = std::floor(x), fy = std::floor(y), fz = std::floor(z);
-  const float dx = x - fx, dy = y - fy, dz = z - fz;
-  const int ix = int(fx) & 255, iy = int(fy) & 255, iz = int(fz) & 255;
+namespace {
+
+// Lattice cell and offset of one coordinate given as hi + lo (lo = 0: pbrt-v4's fp32 lookup):
+// d = (hi - floor(hi)) + lo, cell = floor(hi) (wrapped as pbrt-v4's fmod(x, 2^30), exact) +
+// floor(d), offset = d - floor(d) (docs/textures-spec.md 2.1).
+void noise_cell(float hi, float lo, int& cell, float& offset) {
+  const float f = std::floor(hi);
+  float d = (hi - f) + lo;
+  // lo is up to half an ulp of hi (several cells beyond 2^24): move whole cells over as an
+  // integer (f + floor(d) may not be a float).
+  const float fd = std::floor(d);
+  d -= fd;
+  cell = (int(wrap30(f)) + int(fd)) & 255;
+  offset = d;
+}
+
+// Improved Perlin noise at the point hi + lo (per component).
+float perlin_noise_hl(const SceneTables& s, glm::vec3 hi, glm::vec3 lo) {
+  int ix, iy, iz;
+  float dx, dy, dz;
+  noise_cell(hi.x, lo.x, ix, dx);
+  noise_cell(hi.y, lo.y, iy, dy);
+  noise_cell(hi.z, lo.z, iz, dz);
   const float w000 = grad(s, ix, iy, iz, dx, dy, dz);
   const float w100 = grad(s, ix + 1, iy, iz, dx - 1.0f, dy, dz);
   const float w010 = grad(s, ix, iy + 1, iz, dx, dy - 1.0f, dz);
@@ -73,33 +91,118 @@ float perlin_noise(const SceneTables& s, glm::vec3 p) {
   return lerp(wz, y0, y1);
 }
 
+// Veltkamp's split of a float into two halves of 12 bits (exact: a = hi + lo).
+void veltkamp(float a, float& hi, float& lo) {
+  const float c = 4097.0f * a;
+  hi = c - (c - a);
+  lo = a - hi;
+}
+
+// Dekker's exact product without fma: a b = p + e exactly (for |a b| well inside the float
+// range).
+void two_prod(float a, float b, float& p, float& e) {
+  p = a * b;
+  float ah, al, bh, bl;
+  veltkamp(a, ah, al);
+  veltkamp(b, bh, bl);
+  e = (((ah * bh - p) + ah * bl) + al * bh) + al * bl;
+}
+
+}  // namespace
+
+float perlin_noise(const SceneTables& s, glm::vec3 p) {
+  return perlin_noise_hl(s, p, glm::vec3(0.0f));
+}
+
+float perlin_noise_scaled(const SceneTables& s, float lambda, glm::vec3 p, bool split) {
+  if (!split) return perlin_noise_hl(s, lambda * p, glm::vec3(0.0f));
+  glm::vec3 hi, lo;
+  for (int c = 0; c < 3; ++c) two_prod(lambda, p[c], hi[c], lo[c]);
+  return perlin_noise_hl(s, hi, lo);
+}
+
+bool noise_split(const SceneTables& s) {
+  return (s.globals.texture_opts.x & gpu::TEXOPT_NOISE_SPLIT) != 0u;
+}
+
+namespace {
+
+// Shirley's cubic weight w(t) = (2 a^3 - 3 a^2) + 1 for a = |t| < 1, else 0.
+float shirley_weight(float t) {
+  const float a = std::fabs(t);
+  if (!(a < 1.0f)) return 0.0f;
+  const float a2 = a * a, a3 = a2 * a;
+  return (2.0f * a3 - 3.0f * a2) + 1.0f;
+}
+
+// float -> int after clamping to [-2^30, 2^30] (textures-spec 4.2's int()).
+int shirley_int(float v) { return int(std::clamp(v, -1073741824.0f, 1073741824.0f)); }
+
+}  // namespace
+
+float shirley_noise(const SceneTables& s, glm::vec3 p) {
+  if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) return 0.0f;
+  const float* g = s.tex_data.data() + s.globals.tex_tables.z;  // 256 gradients, then P
+  const float* perm = g + 768;
+  auto phi = [perm](int i) { return int(perm[((i % 256) + 256) % 256]); };
+  const int ix = shirley_int(std::floor(p.x)), iy = shirley_int(std::floor(p.y)),
+            iz = shirley_int(std::floor(p.z));
+  float sum = 0.0f;
+  for (int di = 0; di < 2; ++di) {
+    const int i = ix + di;
+    const float u = p.x - float(i);
+    for (int dj = 0; dj < 2; ++dj) {
+      const int j = iy + dj;
+      const float v = p.y - float(j);
+      for (int dk = 0; dk < 2; ++dk) {
+        const int k = iz + dk;
+        const float t = p.z - float(k);
+        const float* gr = g + 3 * phi(i + phi(j + phi(k)));
+        const float dot = (gr[0] * u + gr[1] * v) + gr[2] * t;
+        sum += ((shirley_weight(u) * shirley_weight(v)) * shirley_weight(t)) * dot;
+      }
+    }
+  }
+  return sum;
+}
+
+float shirley_turbulence(const SceneTables& s, glm::vec3 p, int octaves) {
+  float sum = 0.0f, f = 1.0f;
+  for (int i = 0; i < octaves; ++i) {
+    sum += std::fabs(shirley_noise(s, f * p)) / f;
+    f *= 2.0f;
+  }
+  return sum;
+}
+
 float fbm(const SceneTables& s, glm::vec3 p, glm::vec3 dpdx, glm::vec3 dpdy, float omega,
-          int max_octaves) {
+          int max_octaves, bool split) {
   const float n = octave_count(s, dpdx, dpdy, max_octaves);
   const int n_int = int(std::floor(n));
   float sum = 0.0f, lambda = 1.0f, o = 1.0f;
   for (int i = 0; i < n_int; ++i) {
-    sum += o * perlin_noise(s, lambda * p);
+    sum += o * perlin_noise_scaled(s, lambda, p, split);
     lambda *= 1.99f;  // pbrt-v4's octave step
     o *= omega;
   }
   const float partial = n - float(n_int);
-  sum += o * smooth_step(partial, 0.3f, 0.7f) * perlin_noise(s, lambda * p);
+  sum += o * smooth_step(partial, 0.3f, 0.7f) * perlin_noise_scaled(s, lambda, p, split);
   return sum;
 }
 
 float turbulence(const SceneTables& s, glm::vec3 p, glm::vec3 dpdx, glm::vec3 dpdy, float omega,
-                 int max_octaves) {
+                 int max_octaves, bool split) {
   const float n = octave_count(s, dpdx, dpdy, max_octaves);
   const int n_int = int(std::floor(n));
   float sum = 0.0f, lambda = 1.0f, o = 1.0f;
   for (int i = 0; i < n_int; ++i) {
-    sum += o * std::fabs(perlin_noise(s, lambda * p));
+    sum += o * std::fabs(perlin_noise_scaled(s, lambda, p, split));
     lambda *= 1.99f;
     o *= omega;
   }
   const float partial = n - float(n_int);
-  sum += o * lerp(smooth_step(partial, 0.3f, 0.7f), 0.2f, std::fabs(perlin_noise(s, lambda * p)));
+  sum += o * lerp(smooth_step(partial, 0.3f, 0.7f), 0.2f,
+                  std::fabs(perlin_noise_scaled(s, lambda, p, split)));
   // pbrt-v4 adds 0.2 o for every octave left out, starting with the weight of the partial one.
   for (int i = n_int; i < max_octaves; ++i) {
     sum += o * 0.2f;

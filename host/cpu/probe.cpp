@@ -102,14 +102,20 @@ std::vector<gpu::ProbeOut> probe(const SceneTables& scene, const std::vector<gpu
         break;
       }
       case gpu::PROBE_NOISE: {
-        // Noise functions at p = o_tmax.xyz (layout.h): 0 Perlin, 2 fbm, 3 turbulence.
+        // Noise functions at p = o_tmax.xyz (layout.h): 0 Perlin, 1 Shirley's noise, 2 fbm,
+        // 3 turbulence, 4 Shirley's turbulence with key.z octaves, 5 Perlin at extra.w p.
         const glm::vec3 p(q.o_tmax);
         if (q.key.y == 0u) o.f0.x = perlin_noise(scene, p);
+        else if (q.key.y == 5u)  // noise at lambda p, lambda = extra.w, split if key.w = 1
+          o.f0.x = perlin_noise_scaled(scene, q.extra.w, p, q.key.w == 1u);
+        else if (q.key.y == 1u) o.f0.x = shirley_noise(scene, p);
+        else if (q.key.y == 4u) o.f0.x = shirley_turbulence(scene, p, int(q.key.z));
         else if (q.key.y == 2u)
-          o.f0.x = fbm(scene, p, glm::vec3(q.d), glm::vec3(q.extra), q.extra.w, int(q.key.z));
+          o.f0.x = fbm(scene, p, glm::vec3(q.d), glm::vec3(q.extra), q.extra.w, int(q.key.z),
+                       q.key.w == 1u);
         else if (q.key.y == 3u)
           o.f0.x = turbulence(scene, p, glm::vec3(q.d), glm::vec3(q.extra), q.extra.w,
-                              int(q.key.z));
+                              int(q.key.z), q.key.w == 1u);
         break;
       }
       case gpu::PROBE_ENV: {

@@ -135,7 +135,7 @@ glm::vec3 marble(const SceneTables& s, const gpu::Texture& t, const TextureConte
   const glm::vec3 p = scale * xform_point(t.xform, c.p);
   const glm::vec3 dx = scale * xform_vector(t.xform, c.dpdx);
   const glm::vec3 dy = scale * xform_vector(t.xform, c.dpdy);
-  const float m = p.y + variation * fbm(s, p, dx, dy, t.param[0].x, int(t.ip.x));
+  const float m = p.y + variation * fbm(s, p, dx, dy, t.param[0].x, int(t.ip.x), noise_split(s));
   float u = 0.5f + 0.5f * std::sin(m);
   static const glm::vec3 colors[9] = {
       {.58f, .58f, .6f}, {.58f, .58f, .6f}, {.58f, .58f, .6f}, {.5f, .5f, .5f},  {.6f, .59f, .58f},
@@ -172,6 +172,89 @@ glm::vec3 image_texture(const SceneTables& s, const gpu::Texture& t, const Textu
     if ((t.flags & gpu::TEXFLAG_ALBEDO) && rgb[i] > 1.0f) rgb[i] = 1.0f;
   }
   return rgb;
+}
+
+// ---- Shirley's solid textures (docs/textures-spec.md section 7) ----------------------------
+
+constexpr float kInvPi = 0.318309886f;  // the float 1 / pi of section 7
+
+// sin(pi u) with exact periodicity: r = u - 2 floor(u / 2), then sin(pi r).
+float sin_pi(float u) {
+  const float r = u - 2.0f * std::floor(u / 2.0f);
+  return std::sin(kPi * r);
+}
+
+// Section 4.2's int(): clamp to [-2^30, 2^30], then truncate.
+int clamped_int(float v) { return int(std::clamp(v, -1073741824.0f, 1073741824.0f)); }
+
+// Non-negative a mod n.
+int pos_mod(int a, int n) { return ((a % n) + n) % n; }
+
+// Value of voxel / texel `index` (in texels, not floats) of MipLevel l: rgb, a grey level
+// broadcast; a float texture reads channel 0.
+glm::vec3 level_value(const SceneTables& s, const gpu::MipLevel& l, std::size_t index,
+                      bool want_float) {
+  const float* v = s.texels.data() + l.offset + index * l.channels;
+  if (want_float || l.channels == 1u) return glm::vec3(v[0]);
+  return glm::vec3(v[0], v[1], v[2]);
+}
+
+// Seed 002 11.1.2: the image as an nx x ny array on the unit square, row j = 0 at the bottom,
+// nearest / bilinear / hermite interpolation between samples at integer (s nx, t ny), tiled.
+glm::vec3 interp_image(const SceneTables& s, const gpu::Texture& t, const TextureContext& c) {
+  if (t.image >= s.mip_levels.size()) return glm::vec3(0.0f);
+  const gpu::MipLevel& l = s.mip_levels[t.image];
+  const glm::vec2 st = map_2d(t, c).st;
+  if (!std::isfinite(st.x) || !std::isfinite(st.y)) return glm::vec3(0.0f);
+  const bool want_float = (t.flags & gpu::TEXFLAG_FLOAT) != 0;
+  const int nx = int(l.width), ny = int(l.height);
+  const float X = st.x * float(nx), Y = st.y * float(ny);
+  const float fx = std::floor(X), fy = std::floor(Y);
+  const int i0 = pos_mod(clamped_int(fx), nx), j0 = pos_mod(clamped_int(fy), ny);
+  const int i1 = pos_mod(i0 + 1, nx), j1 = pos_mod(j0 + 1, ny);
+  // c(i, j): column i, row j counted from the bottom (stored rows run top to bottom).
+  auto cij = [&](int i, int j) {
+    return level_value(s, l, std::size_t(ny - 1 - j) * std::size_t(nx) + std::size_t(i),
+                       want_float);
+  };
+  if (t.ip.x == 0u) return cij(i0, j0);
+  float u = X - fx, v = Y - fy;
+  if (t.ip.x == 2u) {
+    u = 3.0f * (u * u) - 2.0f * ((u * u) * u);
+    v = 3.0f * (v * v) - 2.0f * ((v * v) * v);
+  }
+  return ((1.0f - u) * (1.0f - v)) * cij(i0, j0) + (u * (1.0f - v)) * cij(i1, j0) +
+         ((1.0f - u) * v) * cij(i0, j1) + (u * v) * cij(i1, j1);
+}
+
+// Seed 002 11.1.2 in 3D: trilinear interpolation of the nx x ny x nz voxels on the unit cube
+// of texture space, tiled with period 1, summed in the order of the seed's eq. 11.2.
+glm::vec3 volume_texture(const SceneTables& s, const gpu::Texture& t, const TextureContext& c) {
+  if (t.image >= s.mip_levels.size()) return glm::vec3(0.0f);
+  const gpu::MipLevel& l = s.mip_levels[t.image];
+  const glm::vec3 p = xform_point(t.xform, c.p);
+  if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) return glm::vec3(0.0f);
+  const bool want_float = (t.flags & gpu::TEXFLAG_FLOAT) != 0;
+  const int nx = int(t.ip.y), ny = int(t.ip.z), nz = int(t.ip.w);
+  const float X = p.x * float(nx), Y = p.y * float(ny), Z = p.z * float(nz);
+  const float fx = std::floor(X), fy = std::floor(Y), fz = std::floor(Z);
+  const int i0 = pos_mod(clamped_int(fx), nx), j0 = pos_mod(clamped_int(fy), ny),
+            k0 = pos_mod(clamped_int(fz), nz);
+  const int i1 = pos_mod(i0 + 1, nx), j1 = pos_mod(j0 + 1, ny), k1 = pos_mod(k0 + 1, nz);
+  const float u = X - fx, v = Y - fy, w = Z - fz;
+  auto cijk = [&](int i, int j, int k) {
+    return level_value(s, l, (std::size_t(k) * std::size_t(ny) + std::size_t(j)) * std::size_t(nx) +
+                                 std::size_t(i),
+                       want_float);
+  };
+  return ((1.0f - u) * (1.0f - v)) * (1.0f - w) * cijk(i0, j0, k0) +
+         (u * (1.0f - v)) * (1.0f - w) * cijk(i1, j0, k0) +
+         ((1.0f - u) * v) * (1.0f - w) * cijk(i0, j1, k0) +
+         ((1.0f - u) * (1.0f - v)) * w * cijk(i0, j0, k1) +
+         (u * v) * (1.0f - w) * cijk(i1, j1, k0) +
+         (u * (1.0f - v)) * w * cijk(i1, j0, k1) +
+         ((1.0f - u) * v) * w * cijk(i0, j1, k1) +
+         (u * v) * w * cijk(i1, j1, k1);
 }
 
 // Value of instruction t whose children's values are args[0 .. k) (docs/textures-spec.md 2).
@@ -214,21 +297,54 @@ glm::vec3 eval_instruction(const SceneTables& s, const gpu::Texture& t, const Te
     case gpu::TEXTURE_WRINKLED: {
       const glm::vec3 p = xform_point(t.xform, c.p);
       const glm::vec3 dx = xform_vector(t.xform, c.dpdx), dy = xform_vector(t.xform, c.dpdy);
-      const float v = t.type == gpu::TEXTURE_FBM ? fbm(s, p, dx, dy, t.param[0].x, int(t.ip.x))
-                                                 : turbulence(s, p, dx, dy, t.param[0].x, int(t.ip.x));
+      const bool split = noise_split(s);
+      const float v = t.type == gpu::TEXTURE_FBM
+                          ? fbm(s, p, dx, dy, t.param[0].x, int(t.ip.x), split)
+                          : turbulence(s, p, dx, dy, t.param[0].x, int(t.ip.x), split);
       return glm::vec3(v);
     }
     case gpu::TEXTURE_WINDY: {
       const glm::vec3 p = xform_point(t.xform, c.p);
       const glm::vec3 dx = xform_vector(t.xform, c.dpdx), dy = xform_vector(t.xform, c.dpdy);
-      const float strength = fbm(s, 0.1f * p, 0.1f * dx, 0.1f * dy, 0.5f, 3);
-      const float height = fbm(s, p, dx, dy, 0.5f, 6);
+      const float strength = fbm(s, 0.1f * p, 0.1f * dx, 0.1f * dy, 0.5f, 3, noise_split(s));
+      const float height = fbm(s, p, dx, dy, 0.5f, 6, noise_split(s));
       return glm::vec3(std::fabs(strength) * height);
     }
     case gpu::TEXTURE_MARBLE:
       return marble(s, t, c);
     case gpu::TEXTURE_IMAGEMAP:
       return image_texture(s, t, c);
+    case gpu::TEXTURE_STRIPE: {
+      const float x = xform_point(t.xform, c.p).x;
+      const float w = t.param[0].x;
+      if (t.ip.x == 0u) return sin_pi(x * kInvPi) > 0.0f ? args[0] : args[1];
+      if (t.ip.x == 1u) return sin_pi(x / w) > 0.0f ? args[0] : args[1];
+      const float tt = (1.0f + sin_pi(x / w)) / 2.0f;
+      const glm::vec3 t1 = tt != 1.0f ? args[0] : glm::vec3(0.0f);
+      const glm::vec3 t2 = tt != 0.0f ? args[1] : glm::vec3(0.0f);
+      return (1.0f - tt) * t1 + tt * t2;
+    }
+    case gpu::TEXTURE_TURBULENT_STRIPE: {
+      const glm::vec3 p = xform_point(t.xform, c.p);
+      const float k1 = t.param[0].x, k2 = t.param[0].y, w = t.param[0].z;
+      const float a = k1 * p.z + shirley_turbulence(s, k2 * p, int(t.ip.x));
+      const float tt = (1.0f + sin_pi((a / w) * kInvPi)) / 2.0f;
+      const glm::vec3 t1 = tt != 0.0f ? args[0] : glm::vec3(0.0f);
+      const glm::vec3 t2 = tt != 1.0f ? args[1] : glm::vec3(0.0f);
+      return tt * t1 + (1.0f - tt) * t2;
+    }
+    case gpu::TEXTURE_SHIRLEY_NOISE: {
+      const glm::vec3 p = xform_point(t.xform, c.p);
+      return glm::vec3(t.param[0].x * (shirley_noise(s, p) + t.param[0].y));
+    }
+    case gpu::TEXTURE_SHIRLEY_TURBULENCE: {
+      const glm::vec3 p = xform_point(t.xform, c.p);
+      return glm::vec3(t.param[0].x * (shirley_turbulence(s, p, int(t.ip.x)) + t.param[0].y));
+    }
+    case gpu::TEXTURE_IMAGE_INTERP:
+      return interp_image(s, t, c);
+    case gpu::TEXTURE_VOLUME:
+      return volume_texture(s, t, c);
     default:
       return glm::vec3(0.0f);
   }
@@ -241,6 +357,8 @@ int child_count(std::uint32_t tag) {
     case gpu::TEXTURE_DIRECTION_MIX:
     case gpu::TEXTURE_CHECKERBOARD:
     case gpu::TEXTURE_DOTS:
+    case gpu::TEXTURE_STRIPE:
+    case gpu::TEXTURE_TURBULENT_STRIPE:
       return 2;
     case gpu::TEXTURE_MIX:
       return 3;

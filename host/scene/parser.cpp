@@ -786,8 +786,9 @@ static glm::dvec3 equal_area_square_to_sphere_d(double px, double py) {
 }
 
 // LightSource "infinite" with "filename" (pbrt-v4 Light::Create "infinite" and the
-// ImageInfiniteLight constructor, lights.cpp): decodes the square equal-area map, folds the
-// "illuminance" normalisation into the scale and records the light's frame (the CTM).
+// ImageInfiniteLight constructor, lights.cpp): decodes the map (square equal-area by default;
+// "mapping" "latlong" or "cube", docs/textures-spec.md 6.8), folds the "illuminance"
+// normalisation into the scale and records the light's frame (the CTM).
 void Parser::image_infinite_light(const ParamSet& ps, const Token& d, const std::string& dir,
                                   float scale, Light& l) {
   const SourceLoc file_loc = ps.loc_of("filename", d.loc);
@@ -798,6 +799,19 @@ void Parser::image_infinite_light(const ParamSet& ps, const Token& d, const std:
   const std::string name = ps.get_string("filename", "");
   if (name.empty()) throw SceneError(file_loc, "infinite light \"filename\" is empty");
   l.filename = resolve(name, dir);
+  // "mapping" (basalt extension, textures-spec 6.8): the map's parameterisation.
+  const SourceLoc mapping_loc = ps.loc_of("mapping", d.loc);
+  const std::string mapping = ps.get_string("mapping", "equalarea");
+  if (mapping == "equalarea") {
+    l.mapping = 0;
+  } else if (mapping == "latlong") {
+    l.mapping = 1;
+  } else if (mapping == "cube") {
+    l.mapping = 2;
+  } else {
+    throw SceneError(mapping_loc, "unknown infinite light \"mapping\" \"" + mapping +
+                                      "\" (expected \"equalarea\", \"latlong\" or \"cube\")");
+  }
   // pbrt-v4 Image::Read: 8-bit and 16-bit PNG through sRGB (no "encoding" parameter for this
   // light), EXR and PFM linear.
   DecodedImage im = read_texture_image(l.filename, ColorEncoding{ImageEncoding::SRGB}, file_loc);
@@ -805,11 +819,19 @@ void Parser::image_infinite_light(const ParamSet& ps, const Token& d, const std:
     throw SceneError(file_loc, "\"" + l.filename +
                                    "\": image provided to \"infinite\" light must have R, G, "
                                    "and B channels");
-  if (im.width != im.height)
-    throw SceneError(file_loc, "\"" + l.filename + "\": image resolution (" +
-                                   std::to_string(im.width) + ", " + std::to_string(im.height) +
-                                   ") is non-square; an infinite light needs a square "
+  const std::string size_text =
+      "(" + std::to_string(im.width) + ", " + std::to_string(im.height) + ")";
+  if (l.mapping == 0 && im.width != im.height)
+    throw SceneError(file_loc, "\"" + l.filename + "\": image resolution " + size_text +
+                                   " is non-square; an infinite light needs a square "
                                    "equal-area octahedral environment map");
+  if (l.mapping == 2 && (im.width < 1 || im.height != 6 * im.width))
+    throw SceneError(file_loc, "\"" + l.filename + "\": image resolution " + size_text +
+                                   " is not n x 6n; a \"cube\" infinite light needs a vertical "
+                                   "strip of six n x n faces (+x, -x, +y, -y, +z, -z)");
+  if (im.width < 1 || im.height < 1)
+    throw SceneError(file_loc, "\"" + l.filename + "\": image resolution " + size_text +
+                                   " is empty");
   for (float v : im.texels)
     if (!std::isfinite(v))
       throw SceneError(file_loc, "\"" + l.filename +
@@ -822,6 +844,10 @@ void Parser::image_infinite_light(const ParamSet& ps, const Token& d, const std:
   // 2 pi / (res^2). (pbrt-v4 quirk, reproduced: each texel covers 4 pi / res^2, so the
   // measured value is half the true illuminance and the result is lit by 2 E_v.)
   const float E_v = ps.get_float("illuminance", -1.0f);
+  if (E_v > 0.0f && l.mapping != 0)
+    throw SceneError(ps.loc_of("illuminance", d.loc),
+                     "\"illuminance\" with \"mapping\" \"" + mapping +
+                         "\" is not supported yet (only \"equalarea\" maps)");
   if (E_v > 0.0f) {
     constexpr double kLum[3] = {0.2126390, 0.7151687, 0.0721923};  // sRGB LuminanceVector
     double illuminance = 0.0;
@@ -859,6 +885,8 @@ void Parser::image_infinite_light(const ParamSet& ps, const Token& d, const std:
   for (int i = 0; i < 3; ++i) c[i] /= len[i];
   l.light_from_world = glm::transpose(glm::mat3(c[0], c[1], c[2]));
   l.image_res = res;
+  l.image_width = im.width;
+  l.image_height = im.height;
   l.image_rgb = std::move(im.texels);
 }
 

@@ -169,11 +169,15 @@ struct Light {
   glm::vec3 dir{0.0f, 0.0f, 1.0f};  // spot: unit emission axis; distant: unit direction towards the light
   float cone_angle = 30.0f;        // spot, degrees
   float cone_delta = 5.0f;         // spot, degrees
-  // InfiniteImage (pbrt-v4 ImageInfiniteLight): the decoded square equal-area octahedral
-  // image, linear rgb, rows top to bottom (image_res^2 * 3 floats), and the rotation from
-  // world to the light's frame (the inverse of the CTM's rotation at the LightSource line).
+  // InfiniteImage (pbrt-v4 ImageInfiniteLight): the decoded image, linear rgb, rows top to
+  // bottom (image_width * image_height * 3 floats) in the parameterisation `mapping`
+  // (docs/textures-spec.md 6.8: 0 equal-area octahedral square, 1 lat-long, 2 cube strip
+  // n x 6n), and the rotation from world to the light's frame (the inverse of the CTM's
+  // rotation at the LightSource line).
   std::string filename;  // resolved path
-  int image_res = 0;
+  int image_res = 0;     // image_width (kept for the equal-area square)
+  int image_width = 0, image_height = 0;
+  int mapping = 0;  // Light.data.w: 0 "equalarea", 1 "latlong", 2 "cube"
   std::vector<float> image_rgb;
   glm::mat3 light_from_world{1.0f};
   SourceLoc loc;

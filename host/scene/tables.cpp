@@ -90,21 +90,41 @@ std::vector<float> gaussian_cdf(float radius, float sigma) {
   return cumulative(w);
 }
 
-// Mean over the texels of an image infinite light's map of the mean of its clamped rgb (the
-// sum in pbrt-v4 ImageInfiniteLight::Phi divided by the texel count).
+// Relative solid angle of texel (x, y) of a w x h environment map in `mapping`
+// (docs/textures-spec.md 6.8), in double: 1 for the equal-area square; sin theta at the
+// row centre for lat-long; 1 / r^3 at the texel centre of its face for the cube strip.
+double env_texel_weight(std::uint32_t mapping, std::uint32_t x, std::uint32_t y,
+                        std::uint32_t w, std::uint32_t h) {
+  if (mapping == 1) return std::sin(kPi * (double(y) + 0.5) / double(h));
+  if (mapping == 2) {
+    const double a = 2.0 * (double(x) + 0.5) / double(w) - 1.0;
+    const double b = 2.0 * (double(y % w) + 0.5) / double(w) - 1.0;
+    const double r2 = 1.0 + a * a + b * b;
+    return 1.0 / (r2 * std::sqrt(r2));
+  }
+  return 1.0;
+}
+
+// Mean over the sphere of an image infinite light's map of the mean of its clamped rgb: for
+// the equal-area square the sum in pbrt-v4 ImageInfiniteLight::Phi divided by the texel
+// count; for lat-long and cube maps (data.w, textures-spec 6.8) the texels weighted by their
+// relative solid angle (env_texel_weight).
 double image_light_average(const gpu::Light& l, const std::vector<gpu::MipLevel>& mips,
                            const std::vector<float>& texels) {
   if (l.data.x >= mips.size()) return 0.0;
   const gpu::MipLevel& m = mips[l.data.x];
   const std::size_t n = std::size_t(m.width) * m.height;
   if (n == 0 || m.channels != 3) return 0.0;
-  double sum = 0.0;
+  double sum = 0.0, wsum = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     const float* t = &texels[m.offset + 3 * i];
-    sum += (std::max(0.0, double(t[0])) + std::max(0.0, double(t[1])) +
-            std::max(0.0, double(t[2]))) / 3.0;
+    const double w = env_texel_weight(l.data.w, std::uint32_t(i % m.width),
+                                      std::uint32_t(i / m.width), m.width, m.height);
+    sum += w * ((std::max(0.0, double(t[0])) + std::max(0.0, double(t[1])) +
+                 std::max(0.0, double(t[2]))) / 3.0);
+    wsum += w;
   }
-  return sum / double(n);
+  return wsum > 0.0 ? sum / wsum : 0.0;
 }
 
 // pbrt-v4 PiecewiseConstant1D constructor (util/sampling.h) over [0, 1], in float as pbrt-v4:
@@ -155,36 +175,68 @@ std::uint32_t append_distribution_2d(const std::vector<float>& f, std::uint32_t 
 // ImageInfiniteLight constructor): the map as one MipLevel (data.x), pbrt-v4's sampling
 // distribution (Image::GetSamplingDistribution: the channel average of each texel; data.y)
 // and the MIS-compensated one (minus the average, clamped at 0, all ones if nothing is left;
-// data.z); the light's frame.
+// data.z), for lat-long and cube maps times the cells' solid-angle weights (6.8: sin theta of
+// half-texel cells or 1 / r^3 of texels, in double, rounded to float); the mapping (data.w);
+// the light's frame.
 void image_light_tables(const Light& sl, gpu::Light& l, SceneTables& t) {
-  const auto res = static_cast<std::uint32_t>(sl.image_res);
-  if (res == 0 || sl.image_rgb.size() != std::size_t(res) * res * 3)
+  const std::uint32_t mapping = static_cast<std::uint32_t>(sl.mapping);
+  const auto w = static_cast<std::uint32_t>(sl.image_width > 0 ? sl.image_width : sl.image_res);
+  const auto h = static_cast<std::uint32_t>(sl.image_height > 0 ? sl.image_height : sl.image_res);
+  if (w == 0 || h == 0 || mapping > 2 || sl.image_rgb.size() != std::size_t(w) * h * 3 ||
+      (mapping == 0 && w != h) || (mapping == 2 && h != 6 * w))
     throw SceneError(sl.loc, "image infinite light has no image");
   gpu::MipLevel level{};
   level.offset = static_cast<std::uint32_t>(t.texels.size());
-  level.width = level.height = res;
+  level.width = w;
+  level.height = h;
   level.channels = 3;
   l.data = glm::uvec4(0u);
   l.data.x = static_cast<std::uint32_t>(t.mip_levels.size());
+  l.data.w = mapping;
   t.mip_levels.push_back(level);
   t.texels.insert(t.texels.end(), sl.image_rgb.begin(), sl.image_rgb.end());
-  const std::size_t n = std::size_t(res) * res;
-  std::vector<float> d(n);
+  const std::size_t n = std::size_t(w) * h;
+  std::vector<float> texel_f(n);
   for (std::size_t i = 0; i < n; ++i) {
     const float* c = &sl.image_rgb[3 * i];
-    d[i] = (c[0] + c[1] + c[2]) / 3.0f;  // pbrt-v4 ImageChannelValues::Average
+    texel_f[i] = (c[0] + c[1] + c[2]) / 3.0f;  // pbrt-v4 ImageChannelValues::Average
   }
-  l.data.y = append_distribution_2d(d, res, res, t.tex_data);
+  // The distributions' grid (nu x nv cells) and f on it: the texels themselves, except for
+  // lat-long maps (textures-spec 6.8), whose bilinear Le reaches half a texel beyond each
+  // texel: half-texel cells (2w x 2h, as pbrt-v3's distribution) each with the largest f of
+  // the 2 x 2 texels its bilinear lookup reads (repeat wrap), so that no cell where Le is
+  // bright has a small pdf.
+  const std::uint32_t nu = mapping == 1 ? 2 * w : w, nv = mapping == 1 ? 2 * h : h;
+  const std::size_t cells = std::size_t(nu) * nv;
+  std::vector<float> d(cells), weight(cells, 1.0f);
+  for (std::uint32_t j = 0; j < nv; ++j)
+    for (std::uint32_t i = 0; i < nu; ++i) {
+      const std::size_t c = std::size_t(j) * nu + i;
+      if (mapping == 1) {
+        const std::uint32_t x0 = (i + 2 * w - 1) / 2 % w, x1 = (x0 + 1) % w;
+        const std::uint32_t y0 = (j + 2 * h - 1) / 2 % h, y1 = (y0 + 1) % h;
+        d[c] = std::max(std::max(texel_f[std::size_t(y0) * w + x0], texel_f[std::size_t(y0) * w + x1]),
+                        std::max(texel_f[std::size_t(y1) * w + x0], texel_f[std::size_t(y1) * w + x1]));
+        weight[c] = static_cast<float>(std::sin(kPi * (double(j) + 0.5) / double(nv)));
+      } else {
+        d[c] = texel_f[c];
+        if (mapping == 2) weight[c] = static_cast<float>(env_texel_weight(mapping, i, j, w, h));
+      }
+    }
+  std::vector<float> f(cells);
+  for (std::size_t i = 0; i < cells; ++i) f[i] = mapping == 0 ? d[i] : d[i] * weight[i];
+  l.data.y = append_distribution_2d(f, nu, nv, t.tex_data);
   double average = 0.0;  // pbrt-v4 accumulates in double
   for (float v : d) average += v;
-  average /= double(n);
+  average /= double(cells);
   bool all_zero = true;
   for (float& v : d) {
     v = static_cast<float>(std::max(double(v) - average, 0.0));
     all_zero = all_zero && v == 0.0f;
   }
   if (all_zero) std::fill(d.begin(), d.end(), 1.0f);
-  l.data.z = append_distribution_2d(d, res, res, t.tex_data);
+  for (std::size_t i = 0; i < cells; ++i) f[i] = mapping == 0 ? d[i] : d[i] * weight[i];
+  l.data.z = append_distribution_2d(f, nu, nv, t.tex_data);
   l.light_from_world = glm::mat4(sl.light_from_world);
 }
 
@@ -612,6 +664,19 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
             break;
           case gpu::TEXTURE_CONSTANT:
             break;
+          // Shirley's solid textures (docs/textures-spec.md 7); the noise ones also use the
+          // noise family's bit (layout.h).
+          case gpu::TEXTURE_SHIRLEY_NOISE:
+          case gpu::TEXTURE_SHIRLEY_TURBULENCE:
+          case gpu::TEXTURE_TURBULENT_STRIPE:
+            t.features |= gpu::FEATURE_TEX_NOISE;
+            t.features2 |= gpu::FEATURE2_TEX_SHIRLEY;
+            break;
+          case gpu::TEXTURE_STRIPE:
+          case gpu::TEXTURE_IMAGE_INTERP:
+          case gpu::TEXTURE_VOLUME:
+            t.features2 |= gpu::FEATURE2_TEX_SHIRLEY;
+            break;
           default:
             t.features2 |= gpu::FEATURE2_TEX_PROCEDURAL;
             break;
@@ -620,13 +685,17 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
     }
   }
   if (cam.lens_radius > 0.0f) t.features |= gpu::FEATURE_THIN_LENS;
+  // Noise lookups in split precision by default (docs/textures-spec.md 2.1); --noise-precision
+  // fp32 gives pbrt-v4's arithmetic (apply_texture_knobs).
+  if (t.features & gpu::FEATURE_TEX_NOISE) t.features2 |= gpu::FEATURE2_NOISE_SPLIT;
   g.features = glm::uvec4(t.features, t.features2, 0u, 0u);
 
   // ---- textures: shared tables, footprint and options (docs/textures-spec.md) ---------------
   g.tex_tables = texture_shared_tables(t.tex_data);
   min_differentials(g, scene.sampler.spp);
   g.camera_from_world = glm::mat4(glm::inverse(glm::dmat4(cam.world_from_camera)));
-  g.texture_opts = glm::uvec4(scene.disable_texture_filtering ? gpu::TEXOPT_DISABLE_FILTERING : 0u,
+  g.texture_opts = glm::uvec4((scene.disable_texture_filtering ? gpu::TEXOPT_DISABLE_FILTERING : 0u) |
+                                  gpu::TEXOPT_NOISE_SPLIT,
                               0u, 0u, 0u);
   return t;
 }

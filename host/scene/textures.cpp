@@ -234,7 +234,9 @@ void read_volume(const ParamSet& ps, const SourceLoc& loc,
                                   std::to_string(r.size()));
   for (int v : r)
     if (v < 1) throw SceneError(rp->loc, "parameter \"resolution\" values must be >= 1");
-  const std::uint64_t voxels = std::uint64_t(r[0]) * std::uint64_t(r[1]) * std::uint64_t(r[2]);
+  // Each factor < 2^31: the partial product stays below 2^62, and below 2^57 once checked.
+  std::uint64_t voxels = std::uint64_t(r[0]) * std::uint64_t(r[1]);
+  if (voxels <= (std::uint64_t(1) << 26)) voxels *= std::uint64_t(r[2]);
   if (voxels > (std::uint64_t(1) << 26))
     throw SceneError(rp->loc, "parameter \"resolution\": nx * ny * nz must be at most 67108864");
   const std::uint64_t ch = t.is_float ? 1u : 3u;
@@ -539,6 +541,36 @@ std::uint32_t TextureProgramBuilder::pyramid(const TextureDef& t, std::uint32_t&
   return it->second.first;
 }
 
+// The one MipLevel of an interpimage (its decoded image as stored, once per image) or of a
+// volume (its voxels: width nx, height ny * nz; once per texture definition).
+std::uint32_t TextureProgramBuilder::single_level(const TextureDef& t) {
+  if (!mip_levels_ || !texels_) return INVALID_INDEX;
+  auto append = [&](int w, int h, int ch, const std::vector<float>& v) {
+    gpu::MipLevel l{};
+    l.offset = std::uint32_t(texels_->size());
+    l.width = std::uint32_t(w);
+    l.height = std::uint32_t(h);
+    l.channels = std::uint32_t(ch);
+    mip_levels_->push_back(l);
+    texels_->insert(texels_->end(), v.begin(), v.end());
+    return std::uint32_t(mip_levels_->size() - 1);
+  };
+  if (t.tag == gpu::TEXTURE_VOLUME) {
+    auto it = volumes_.find(&t);
+    if (it == volumes_.end())
+      it = volumes_.emplace(&t, append(int(t.ip.y), int(t.ip.z * t.ip.w), t.is_float ? 1 : 3,
+                                       t.voxels)).first;
+    return it->second;
+  }
+  if (t.image < 0 || std::size_t(t.image) >= scene_.images.size()) return INVALID_INDEX;
+  auto it = single_levels_.find(t.image);
+  if (it == single_levels_.end()) {
+    const DecodedImage& im = scene_.images[std::size_t(t.image)];
+    it = single_levels_.emplace(t.image, append(im.width, im.height, im.channels, im.texels)).first;
+  }
+  return it->second;
+}
+
 std::uint32_t TextureProgramBuilder::emit(const TextureDef& t, int depth, int& stack,
                                           bool albedo) {
   if (depth > 64) throw SceneError(t.loc, "textures nested too deeply");
@@ -568,6 +600,7 @@ std::uint32_t TextureProgramBuilder::emit(const TextureDef& t, int depth, int& s
     g.image = pyramid(t, g.ip.x);
     if (albedo && !t.is_float) g.flags |= gpu::TEXFLAG_ALBEDO;
   }
+  if (t.tag == gpu::TEXTURE_IMAGE_INTERP || t.tag == gpu::TEXTURE_VOLUME) g.image = single_level(t);
   table_->push_back(g);
   return std::uint32_t(table_->size() - 1);
 }
@@ -614,7 +647,7 @@ std::string image_key(const TextureDef& t) {
 
 // pbrt-v4 ImageTextureBase's texture cache (textures.h), for the decoded image.
 void load_texture_image(Scene& scene, TextureDef& t) {
-  if (t.tag != gpu::TEXTURE_IMAGEMAP) return;
+  if (t.tag != gpu::TEXTURE_IMAGEMAP && t.tag != gpu::TEXTURE_IMAGE_INTERP) return;
   const std::string key = image_key(t);
   auto it = scene.image_index.find(key);
   if (it == scene.image_index.end()) {
@@ -637,6 +670,39 @@ glm::uvec4 texture_shared_tables(std::vector<float>& tex_data) {
   for (std::uint32_t i = 0; i < gpu::EWA_LUT_SIZE; ++i) {
     const double r2 = double(i) / double(gpu::EWA_LUT_SIZE - 1);
     tex_data.push_back(float(std::exp(-2.0 * r2) - std::exp(-2.0)));
+  }
+  // Shirley's solid noise (docs/textures-spec.md 7): 256 unit gradients by rejection in the
+  // unit ball, then a Fisher-Yates permutation of 0..255, from one 64-bit LCG (seed 0x5eed;
+  // every draw advances the state first).
+  off.z = std::uint32_t(tex_data.size());
+  {
+    std::uint64_t x = 0x5eedu;
+    auto next = [&x]() {
+      x = x * 6364136223846793005ull + 1442695040888963407ull;
+      return x;
+    };
+    auto xi = [&]() { return double(next() >> 40) / 16777216.0; };
+    for (int k = 0; k < 256; ++k) {
+      for (;;) {
+        const double vx = 2.0 * xi() - 1.0;
+        const double vy = 2.0 * xi() - 1.0;
+        const double vz = 2.0 * xi() - 1.0;
+        const double l2 = vx * vx + vy * vy + vz * vz;
+        if (!(l2 > 1e-6 && l2 < 1.0)) continue;
+        const double l = std::sqrt(l2);
+        tex_data.push_back(float(vx / l));
+        tex_data.push_back(float(vy / l));
+        tex_data.push_back(float(vz / l));
+        break;
+      }
+    }
+    int perm[256];
+    for (int i = 0; i < 256; ++i) perm[i] = i;
+    for (int i = 255; i >= 1; --i) {
+      const int j = int((next() >> 33) % std::uint64_t(i + 1));
+      std::swap(perm[i], perm[j]);
+    }
+    for (int v : perm) tex_data.push_back(float(v));
   }
   return off;
 }
@@ -687,7 +753,8 @@ void min_differentials(gpu::Globals& g, int spp) {
 }
 
 std::vector<std::pair<std::string, std::string>> apply_texture_knobs(SceneTables& t, int filter,
-                                                                     int octave_cap) {
+                                                                     int octave_cap,
+                                                                     bool split_noise) {
   static const char* kFilterNames[] = {"point", "bilinear", "trilinear", "ewa"};
   std::vector<std::pair<std::string, std::string>> knobs;
   if (filter >= 0) {
@@ -708,6 +775,16 @@ std::vector<std::pair<std::string, std::string>> apply_texture_knobs(SceneTables
     knobs.emplace_back("texture_filter", "scene");
   }
   t.globals.texture_opts.y = octave_cap > 0 ? std::uint32_t(octave_cap) : 0u;
+  // Noise precision: the option bit for both sides, the feature bit (shader code) only where
+  // the scene has noise.
+  t.globals.texture_opts.x = split_noise ? (t.globals.texture_opts.x | gpu::TEXOPT_NOISE_SPLIT)
+                                         : (t.globals.texture_opts.x & ~gpu::TEXOPT_NOISE_SPLIT);
+  if (split_noise && (t.features & gpu::FEATURE_TEX_NOISE))
+    t.features2 |= gpu::FEATURE2_NOISE_SPLIT;
+  else
+    t.features2 &= ~gpu::FEATURE2_NOISE_SPLIT;
+  t.globals.features.y = t.features2;
+  knobs.emplace_back("noise_precision", split_noise ? "split" : "fp32");
   knobs.emplace_back("noise_octave_cap", octave_cap > 0 ? std::to_string(octave_cap) : "none");
   knobs.emplace_back("texture_filtering",
                      (t.globals.texture_opts.x & gpu::TEXOPT_DISABLE_FILTERING) ? "disabled" : "on");

@@ -30,8 +30,8 @@ TextureDef parse_texture(const std::string& name, const std::string& type,
                          const std::function<bool(const std::string&, bool)>& defined,
                          const std::function<std::string(const std::string&)>& resolve = {});
 
-/// \brief Decodes the image of imagemap texture \p t (once per (file, encoding) in
-/// Scene::images) and sets t.image. No-op for other textures.
+/// \brief Decodes the image of imagemap or interpimage texture \p t (once per (file, encoding)
+/// in Scene::images, shared by both classes) and sets t.image. No-op for other textures.
 /// \throws SceneError at the "filename" parameter for a missing, unreadable or corrupt file.
 void load_texture_image(Scene& scene, TextureDef& t);
 
@@ -55,6 +55,7 @@ class TextureProgramBuilder {
   std::uint32_t emit(const TextureDef& t, int depth, int& stack, bool albedo);
   std::uint32_t emit_constant(glm::vec3 v, bool is_float);
   std::uint32_t pyramid(const TextureDef& t, std::uint32_t& levels);
+  std::uint32_t single_level(const TextureDef& t);  // interpimage, volume: one MipLevel
   const Scene& scene_;
   std::vector<gpu::Texture>* table_;
   std::vector<gpu::Texture> scratch_;
@@ -64,10 +65,13 @@ class TextureProgramBuilder {
   std::vector<float>* texels_ = nullptr;
   std::map<std::pair<int, std::uint32_t>, std::pair<std::uint32_t, std::uint32_t>>
       pyramids_;  // (image, wrap) -> (first level, level count)
+  std::map<int, std::uint32_t> single_levels_;            // interpimage: image -> MipLevel
+  std::map<const TextureDef*, std::uint32_t> volumes_;    // volume: definition -> MipLevel
 };
 
 /// \brief Appends the shared tables of docs/textures-spec.md section 5 to \p tex_data and
-/// returns their offsets (Globals.tex_tables): x = Perlin permutation (512 entries).
+/// returns their offsets (Globals.tex_tables): x = Perlin permutation (512 entries), y = EWA
+/// weights, z = Shirley's 256 gradients (768 floats) then his permutation (256 floats).
 glm::uvec4 texture_shared_tables(std::vector<float>& tex_data);
 
 /// \brief pbrt-v4 CameraBase::FindMinimumDifferentials for basalt's perspective camera
@@ -78,9 +82,11 @@ void min_differentials(gpu::Globals& g, int spp);
 /// \brief Texture quality knobs of the command line (issue 8 item 9), applied to built tables:
 /// \p filter (FILTER_*, or a negative value to keep each image map's own) overrides the filter
 /// of every image map (and the FEATURE2_TEX_EWA bit follows); \p octave_cap > 0 caps the
-/// octaves of every noise sum (Globals.texture_opts.y). Returns the knobs in force as
-/// name/value pairs for --stats.
+/// octaves of every noise sum (Globals.texture_opts.y); \p split_noise chooses the noise lookup
+/// precision (docs/textures-spec.md 2.1: true "split", the default of build_tables; false
+/// pbrt-v4's "fp32"). Returns the knobs in force as name/value pairs for --stats.
 std::vector<std::pair<std::string, std::string>> apply_texture_knobs(SceneTables& t, int filter,
-                                                                     int octave_cap);
+                                                                     int octave_cap,
+                                                                     bool split_noise = true);
 
 }  // namespace basalt

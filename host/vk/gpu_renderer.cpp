@@ -42,7 +42,8 @@ const char* kTableNames[] = {"globals", "BVH nodes", "primitive refs", "triangle
                              "vertices", "meshes",    "spheres",        "materials",
                              "lights",   "light cdf", "filter table",   "accumulation", "counters",
                              "measured BRDF", "textures",   "image levels", "texels",
-                             "texture data"};
+                             "texture data", "texels (chunk 1)", "texels (chunk 2)",
+                             "texels (chunk 3)"};
 
 /// Feature bits the lean render shader (BASALT_LEAN_MATERIALS) implements: everything but
 /// the material kinds other than diffuse. A feature added to layout.h later is not in this
@@ -84,6 +85,14 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     const std::size_t bytes = v.size() * sizeof(v[0]);
     return Src{v.empty() ? nullptr : v.data(), std::max<std::size_t>(16, bytes)};
   };
+  // The texel table in chunks of 2^TEXEL_CHUNK_SHIFT floats, one binding each (layout.h).
+  auto texel_chunk = [&t](std::size_t k) {
+    const std::size_t first = k << TEXEL_CHUNK_SHIFT;
+    const std::size_t n = t.texels.size() > first
+                              ? std::min(t.texels.size() - first, std::size_t(1) << TEXEL_CHUNK_SHIFT)
+                              : 0;
+    return Src{n ? t.texels.data() + first : nullptr, std::max<std::size_t>(16, n * sizeof(float))};
+  };
   const Src src[BINDING_COUNT] = {
       {&t.globals, sizeof(t.globals)},
       {t.nodes.data(), t.nodes.size() * sizeof(gpu::BvhNode)},
@@ -99,7 +108,13 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
       {nullptr, pixels * sizeof(glm::vec4)},
       {nullptr, 4 * sizeof(std::uint32_t)},
       optional_table(t.measured), optional_table(t.textures), optional_table(t.mip_levels),
-      optional_table(t.texels), optional_table(t.tex_data)};
+      texel_chunk(0), optional_table(t.tex_data), texel_chunk(1), texel_chunk(2),
+      texel_chunk(3)};
+  if (t.texels.size() > (std::size_t(TEXEL_CHUNK_COUNT) << TEXEL_CHUNK_SHIFT))
+    throw std::runtime_error("scene too large: its images need " +
+                             std::to_string(t.texels.size() * sizeof(float)) +
+                             " bytes of texels, more than basalt's " +
+                             std::to_string(TEXEL_CHUNK_COUNT) + " bindings of 128 MiB");
   const std::uint64_t limit = ctx.info().max_storage_buffer_range;
   for (int i = 0; i < BINDING_COUNT; ++i)
     if (src[i].bytes > limit)

@@ -44,6 +44,19 @@ BASALT_TABLE(MEASURED, MeasuredBuffer, float, measured);
 BASALT_TABLE(TEXTURES, TextureBuffer, Texture, textures);
 BASALT_TABLE(MIP_LEVELS, MipLevelBuffer, MipLevel, mip_levels);
 BASALT_TABLE(TEXELS, TexelBuffer, float, texels);
+BASALT_TABLE(TEXELS1, TexelBuffer1, float, texels1);
+BASALT_TABLE(TEXELS2, TexelBuffer2, float, texels2);
+BASALT_TABLE(TEXELS3, TexelBuffer3, float, texels3);
 BASALT_TABLE(TEX_DATA, TexDataBuffer, float, tex_data);
+
+// Float g of the texel table, which spans up to TEXEL_CHUNK_COUNT bindings of 2^25 floats
+// (layout.h): every texel read goes through here.
+float texel_at(uint g) {
+  uint c = g >> TEXEL_CHUNK_SHIFT, i = g & ((1u << TEXEL_CHUNK_SHIFT) - 1u);
+  if (c == 0u) return texels[i];
+  if (c == 1u) return texels1[i];
+  if (c == 2u) return texels2[i];
+  return texels3[i];
+}
 
 #endif

@@ -59,8 +59,8 @@ vec3 mipmap_texel(uint level, ivec2 xy, uint wrap, bool want_float) {
     }
   }
   uint o = ml.offset + (uint(p.y) * ml.width + uint(p.x)) * ml.channels;
-  if (want_float || ml.channels == 1u) return vec3(texels[o]);
-  return vec3(texels[o], texels[o + 1u], texels[o + 2u]);
+  if (want_float || ml.channels == 1u) return vec3(texel_at(o));
+  return vec3(texel_at(o), texel_at(o + 1u), texel_at(o + 2u));
 }
 
 // pbrt-v4 Log2(x) = std::log(x) * invLog2 (math.h), with the ~1-ulp log of trig.glsl; +inf and

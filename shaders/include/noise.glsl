@@ -41,14 +41,27 @@ float noise_wrap30(float x) {
   return r;
 }
 
-// pbrt-v4 Noise(p): 0 at lattice points, |n| <= 1.
-float perlin_noise(vec3 p) {
-  float x = noise_wrap30(p.x), y = noise_wrap30(p.y), z = noise_wrap30(p.z);
-  float fx = floor(x), fy = floor(y), fz = floor(z);
-  precise float dx = x - fx;
-  precise float dy = y - fy;
-  precise float dz = z - fz;
-  int ix = int(fx) & 255, iy = int(fy) & 255, iz = int(fz) & 255;
+// Lattice cell and offset of one coordinate given as hi + lo (lo = 0: pbrt-v4's fp32 lookup):
+// d = (hi - floor(hi)) + lo, cell = floor(hi) (wrapped as pbrt-v4's fmod(x, 2^30), exact) +
+// floor(d), offset = d - floor(d) (docs/textures-spec.md 2.1).
+void noise_cell(float hi, float lo, out int cell, out float offset) {
+  float f = floor(hi);
+  precise float d = (hi - f) + lo;
+  // lo is up to half an ulp of hi (several cells beyond 2^24): move whole cells over as an
+  // integer (f + floor(d) may not be a float).
+  float fd = floor(d);
+  d -= fd;
+  cell = (int(noise_wrap30(f)) + int(fd)) & 255;
+  offset = d;
+}
+
+// Improved Perlin noise at the point hi + lo (pbrt-v4 Noise for lo = 0).
+float perlin_noise_hl(vec3 hi, vec3 lo) {
+  int ix, iy, iz;
+  float dx, dy, dz;
+  noise_cell(hi.x, lo.x, ix, dx);
+  noise_cell(hi.y, lo.y, iy, dy);
+  noise_cell(hi.z, lo.z, iz, dz);
   precise float dx1 = dx - 1.0;
   precise float dy1 = dy - 1.0;
   precise float dz1 = dz - 1.0;
@@ -65,6 +78,32 @@ float perlin_noise(vec3 p) {
   float x01 = noise_lerp(wx, w001, w101), x11 = noise_lerp(wx, w011, w111);
   float y0 = noise_lerp(wy, x00, x10), y1 = noise_lerp(wy, x01, x11);
   return noise_lerp(wz, y0, y1);
+}
+
+// pbrt-v4 Noise(p): 0 at lattice points, |n| <= 1.
+float perlin_noise(vec3 p) { return perlin_noise_hl(p, vec3(0.0)); }
+
+// Dekker's exact product without fma, per component: lambda p = hi + lo exactly (Veltkamp's
+// split of each factor into 12-bit halves; T. J. Dekker, "A floating-point technique for
+// extending the available precision", 1971).
+void noise_two_prod(float lambda, vec3 p, out vec3 hi, out vec3 lo) {
+  precise float c = 4097.0 * lambda;
+  precise float ah = c - (c - lambda);
+  precise float al = lambda - ah;
+  precise vec3 cp = 4097.0 * p;
+  precise vec3 bh = cp - (cp - p);
+  precise vec3 bl = p - bh;
+  precise vec3 prod = lambda * p;
+  precise vec3 e = (((ah * bh - prod) + ah * bl) + al * bh) + al * bl;
+  hi = prod;
+  lo = e;
+}
+
+// True if noise lookups use the split precision mode in this pipeline (FEATURE2_NOISE_SPLIT,
+// TEXOPT_NOISE_SPLIT).
+bool noise_split() {
+  return (FEATURES2 & FEATURE2_NOISE_SPLIT) != 0u &&
+         (globals.texture_opts.x & TEXOPT_NOISE_SPLIT) != 0u;
 }
 
 // Octaves the footprint resolves (pbrt-v4 FBm / Turbulence): clamp(-1 - log2(len2) / 2, 0,
@@ -91,7 +130,8 @@ float noise_smooth_step(float x, float a, float b) {
 // needs both holds one copy (lavapipe inlines every call site): octaves at frequencies 1.99^i
 // with weights omega^i, the last faded in; turbulence sums |noise| and adds 0.2 times the
 // weight of every octave the footprint leaves out (docs/textures-spec.md section 8).
-float noise_sum(vec3 p, vec3 dpdx, vec3 dpdy, float omega, int max_octaves, bool turb) {
+float noise_sum(vec3 p, vec3 dpdx, vec3 dpdy, float omega, int max_octaves, bool turb,
+                bool split) {
   float n = noise_octaves(dpdx, dpdy, max_octaves);
   int n_int = int(floor(n));
   precise float sum = 0.0;
@@ -101,8 +141,11 @@ float noise_sum(vec3 p, vec3 dpdx, vec3 dpdy, float omega, int max_octaves, bool
   float fade = noise_smooth_step(partial, 0.3, 0.7);
   // Octave i < n_int in full, then the partial one (i == n_int): one noise call site.
   [[dont_unroll]] for (int i = 0; i <= n_int; ++i) {
-    precise vec3 q = lambda * p;
-    float v = perlin_noise(q);
+    // Lookup at lambda p: pbrt-v4's fp32 product, or the exact product as a float pair.
+    precise vec3 hi = lambda * p;
+    vec3 lo = vec3(0.0);
+    if (split) noise_two_prod(lambda, p, hi, lo);
+    float v = perlin_noise_hl(hi, lo);
     if (turb) v = abs(v);
     if (i < n_int) {
       sum += o * v;
@@ -125,12 +168,12 @@ float noise_sum(vec3 p, vec3 dpdx, vec3 dpdy, float omega, int max_octaves, bool
 
 // pbrt-v4 FBm (util/noise.cpp).
 float fbm(vec3 p, vec3 dpdx, vec3 dpdy, float omega, int max_octaves) {
-  return noise_sum(p, dpdx, dpdy, omega, max_octaves, false);
+  return noise_sum(p, dpdx, dpdy, omega, max_octaves, false, noise_split());
 }
 
 // pbrt-v4 Turbulence (util/noise.cpp).
 float turbulence(vec3 p, vec3 dpdx, vec3 dpdy, float omega, int max_octaves) {
-  return noise_sum(p, dpdx, dpdy, omega, max_octaves, true);
+  return noise_sum(p, dpdx, dpdy, omega, max_octaves, true, noise_split());
 }
 
 // ---- Shirley's solid noise (docs/textures-spec.md section 7; seed 002 11.1.3, 11.1.4) ------

@@ -261,8 +261,8 @@ vec3 tex_shirley_array(uint ti, TexCtx c) {
     // interpimage: row ny - 1 - j of the stored level (top row first); volume: slice k.
     uint row = vol ? uint(ijk.z * n.y + ijk.y) : uint(n.y - 1 - ijk.y);
     uint o = ml.offset + (row * uint(n.x) + uint(ijk.x)) * ml.channels;
-    vec3 v = (want_float || ml.channels == 1u) ? vec3(texels[o])
-                                               : vec3(texels[o], texels[o + 1u], texels[o + 2u]);
+    vec3 v = (want_float || ml.channels == 1u) ? vec3(texel_at(o))
+                                               : vec3(texel_at(o), texel_at(o + 1u), texel_at(o + 2u));
     precise float wx = (b & 1u) != 0u ? f.x : g.x;
     precise float wy = (b & 2u) != 0u ? f.y : g.y;
     precise float wz = (b & 4u) != 0u ? f.z : g.z;
@@ -385,7 +385,8 @@ vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
           float omega = windy ? 0.5 : prm.x;
           int oct = windy ? (k == 0 ? 3 : 6) : int(textures[ti].ip.x);
           v[k] = noise_sum(windy && k == 0 ? pk : p, windy && k == 0 ? dxk : dx,
-                           windy && k == 0 ? dyk : dy, omega, oct, type == TEXTURE_WRINKLED);
+                           windy && k == 0 ? dyk : dy, omega, oct, type == TEXTURE_WRINKLED,
+                           noise_split());
         }
         if (type == TEXTURE_MARBLE) return tex_marble(ti, p.y, v[0]);
         if (windy) {

@@ -39,11 +39,19 @@ using mat4 = glm::mat4;
 #define BINDING_MEASURED 13  // float measured[]: tabulated BRDFs (MERL half-angle, rgb interleaved)
 #define BINDING_TEXTURES 14  // Texture textures[]: texture programs (docs/textures-spec.md 2)
 #define BINDING_MIP_LEVELS 15  // MipLevel mip_levels[]: one entry per level of every image
-#define BINDING_TEXELS 16    // float texels[]: image levels, channel-interleaved, linear
+#define BINDING_TEXELS 16    // float texels[]: image levels, channel-interleaved, linear; the
+                             //   first TEXEL_CHUNK floats (chunk 0, see TEXEL_CHUNK_SHIFT)
 #define BINDING_TEX_DATA 17  // float tex_data[]: shared tables (docs/textures-spec.md 5):
                              //   noise permutation, EWA weights, Shirley gradients,
                              //   environment-map sampling distributions
-#define BINDING_COUNT 18
+#define BINDING_TEXELS1 18   // texels chunks 1, 2 and 3 (floats TEXEL_CHUNK k .. ); each binding
+#define BINDING_TEXELS2 19   //   stays within every device's maxStorageBufferRange (at least
+#define BINDING_TEXELS3 20   //   2^27 bytes in Vulkan), so image data may total 512 MiB
+#define BINDING_COUNT 21
+// Texel index g (a float index into the whole texel table) lives in chunk g >> TEXEL_CHUNK_SHIFT
+// at index g & (TEXEL_CHUNK - 1) of that chunk's binding.
+#define TEXEL_CHUNK_SHIFT 25u
+#define TEXEL_CHUNK_COUNT 4u
 
 // Probe shaders (tests) add their input and output tables to the same set, well above the
 // scene bindings so that later issues can append scene tables without moving them.
@@ -427,7 +435,9 @@ BASALT_CONST uint PROBE_BSDF = 6u;
 BASALT_CONST uint PROBE_TEXTURE = 7u;
 // PROBE_NOISE: noise functions at p = o_tmax.xyz (key.y = 0: pbrt perlin_noise; 1: Shirley's
 // solid noise; 2: pbrt fbm with dpdx = d.xyz, dpdy = extra.xyz, octaves key.z, roughness
-// extra.w; 3: pbrt turbulence, same inputs); key.w = 1 uses the split-precision lookup
+// extra.w; 3: pbrt turbulence, same inputs; 4: Shirley's turbulence with key.z octaves;
+// 5: perlin noise at lambda p with lambda = extra.w); key.w = 1 uses the split-precision
+// lookup (ops 2, 3, 5; docs/textures-spec.md 2.1)
 //   out: f0.x = value
 BASALT_CONST uint PROBE_NOISE = 8u;
 // PROBE_ENV: image infinite light key.y; in: d.xyz = world direction, extra.xy = u (sample)

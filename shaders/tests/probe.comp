@@ -121,7 +121,14 @@ void main() {
       else if (q.key.y == 1u || q.key.y == 4u)  // one call site: noise is the 1-octave plain sum
         r.f0.x = shirley_noise_sum(p, q.key.y == 4u ? int(q.key.z) : 1, q.key.y == 4u);
       else if (q.key.y == 2u || q.key.y == 3u)
-        r.f0.x = noise_sum(p, q.d.xyz, q.extra.xyz, q.extra.w, int(q.key.z), q.key.y == 3u);
+        r.f0.x = noise_sum(p, q.d.xyz, q.extra.xyz, q.extra.w, int(q.key.z), q.key.y == 3u,
+                           q.key.w == 1u);
+      else if (q.key.y == 5u) {  // noise at lambda p, lambda = extra.w, split if key.w = 1
+        precise vec3 hi = q.extra.w * p;
+        vec3 lo = vec3(0.0);
+        if (q.key.w == 1u) noise_two_prod(q.extra.w, p, hi, lo);
+        r.f0.x = perlin_noise_hl(hi, lo);
+      }
       break;
     }
     case PROBE_DIFFERENTIALS: {

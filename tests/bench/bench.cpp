@@ -1,7 +1,8 @@
 // basalt benchmark: samples/s and Mrays/s of every scene in scenes/ on a Vulkan device
 // (lavapipe unless BASALT_BENCH_DEVICE names another) and on the CPU reference, and the
 // cost of the specialised pipeline against one with every feature compiled in, and for
-// diffuse-only scenes of the lean render shader against the full one.
+// diffuse-only scenes of the lean render shader against the full one; and the render cost of
+// each texture family on one scene (texture/<family>/{gpu,cpu}).
 // Run: `cmake --build build --target bench` (5 repetitions, medians reported).
 #include <benchmark/benchmark.h>
 
@@ -15,6 +16,7 @@
 #include "cpu/render.h"
 #include "scene/scene.h"
 #include "scene/tables.h"
+#include "scene/textures.h"
 #include "vk/context.h"
 #include "vk/gpu_renderer.h"
 
@@ -107,8 +109,90 @@ void BM_Specialisation(benchmark::State& state, std::string path) {
   state.counters["pipeline_s"] = pipeline / double(state.iterations());
 }
 
+/// Texture families compared by BM_TextureFamily: one scene (a floor and nine spheres under a
+/// distant light and a sky, 160x120) whose every reflectance is the named texture.
+const std::vector<std::pair<std::string, std::string>>& texture_families() {
+  static const std::vector<std::pair<std::string, std::string>> f = {
+      {"none", "Material \"diffuse\" \"rgb reflectance\" [ 0.5 0.4 0.3 ]"},
+      {"constant", "Texture \"t\" \"spectrum\" \"constant\" \"rgb value\" [ 0.5 0.4 0.3 ]"},
+      {"checkerboard", "Texture \"t\" \"spectrum\" \"checkerboard\" \"float uscale\" 8 "
+                       "\"float vscale\" 8 \"rgb tex1\" [ 0.8 0.8 0.8 ] \"rgb tex2\" [ 0.1 0.1 0.1 ]"},
+      {"fbm", "Texture \"f\" \"float\" \"fbm\" \"integer octaves\" 8\n"
+              "Texture \"t\" \"spectrum\" \"scale\" \"rgb tex\" [ 0.5 0.4 0.3 ] \"texture scale\" \"f\""},
+      {"fbm-fp32", "Texture \"f\" \"float\" \"fbm\" \"integer octaves\" 8\n"
+                   "Texture \"t\" \"spectrum\" \"scale\" \"rgb tex\" [ 0.5 0.4 0.3 ] \"texture scale\" \"f\""},
+      {"marble", "Texture \"t\" \"spectrum\" \"marble\" \"float scale\" 3"},
+      {"imagemap-bilinear", "Texture \"t\" \"spectrum\" \"imagemap\" \"string filename\" "
+                            "\"data/tex-card.png\" \"string filter\" \"bilinear\""},
+      {"imagemap-trilinear", "Texture \"t\" \"spectrum\" \"imagemap\" \"string filename\" "
+                             "\"data/tex-card.png\" \"string filter\" \"trilinear\""},
+      {"imagemap-ewa", "Texture \"t\" \"spectrum\" \"imagemap\" \"string filename\" "
+                       "\"data/tex-card.png\" \"string filter\" \"ewa\""},
+      {"solidnoise", "Texture \"t\" \"spectrum\" \"solidturbulence\" \"integer octaves\" 6"},
+  };
+  return f;
+}
+
+/// Tables of the texture-family scene for family \p i, cached.
+const basalt::SceneTables& family_tables(std::size_t i) {
+  static std::map<std::size_t, basalt::SceneTables> cache;
+  auto it = cache.find(i);
+  if (it != cache.end()) return it->second;
+  const auto& [name, def] = texture_families()[i];
+  std::string text =
+      "LookAt 0 3 -7  0 0.5 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n"
+      "Film \"rgb\" \"integer xresolution\" 160 \"integer yresolution\" 120\n"
+      "Integrator \"path\" \"integer maxdepth\" 5\nWorldBegin\n"
+      "LightSource \"infinite\" \"rgb L\" [ 0.4 0.4 0.5 ]\n"
+      "LightSource \"distant\" \"point3 from\" [ -2 5 -3 ] \"rgb L\" [ 2 2 2 ]\n" + def + "\n";
+  if (name != "none") text += "Material \"diffuse\" \"texture reflectance\" \"t\"\n";
+  text += "Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ] \"point3 P\" "
+          "[ -10 0 -10 10 0 -10 10 0 10 -10 0 10 ] \"point2 uv\" [ 0 0 1 0 1 1 0 1 ]\n";
+  for (int k = 0; k < 9; ++k)
+    text += "AttributeBegin\nTranslate " + std::to_string(-2.4 + 2.4 * (k % 3)) + " 0.6 " +
+            std::to_string(-1.5 + 1.6 * (k / 3)) + "\nShape \"sphere\" \"float radius\" 0.6\n"
+            "AttributeEnd\n";
+  basalt::SceneTables t = basalt::build_tables(basalt::load_scene_from_string(text, name, "scenes"));
+  if (name == "fbm-fp32") basalt::apply_texture_knobs(t, -1, 0, false);
+  return cache.emplace(i, std::move(t)).first->second;
+}
+
+/// Render cost of one texture family (argument: index into texture_families()) on the GPU
+/// (range(1) = 0) or the CPU reference (1); pipeline creation is not timed.
+void BM_TextureFamily(benchmark::State& state) {
+  const auto& t = family_tables(std::size_t(state.range(0)));
+  const bool cpu = state.range(1) == 1;
+  state.SetLabel(texture_families()[std::size_t(state.range(0))].first + (cpu ? ", cpu" : ", gpu"));
+  const double samples = double(t.width()) * t.height() * kSpp;
+  double rays = 0;
+  std::unique_ptr<basalt::vkx::GpuRenderer> gpu;
+  if (!cpu) gpu = std::make_unique<basalt::vkx::GpuRenderer>(context(), t);
+  std::vector<glm::vec4> accum;
+  for (auto _ : state) {
+    if (cpu) {
+      accum.assign(std::size_t(t.width()) * t.height(), glm::vec4(0.0f));
+      rays += double(basalt::cpu::render(t, 0, kSpp, accum));
+    } else {
+      gpu->clear();
+      gpu->render(0, kSpp);
+      rays += double(gpu->rays());
+    }
+  }
+  set_counters(state, samples * state.iterations(), rays);
+  if (gpu) state.counters["pipeline_s"] = gpu->seconds_pipeline;
+}
+
 /// Registers every benchmark for every scene file.
 void register_all() {
+  for (std::size_t i = 0; i < texture_families().size(); ++i)
+    for (int side = 0; side < 2; ++side)
+      benchmark::RegisterBenchmark(("texture/" + texture_families()[i].first +
+                                    (side ? "/cpu" : "/gpu")).c_str(),
+                                   BM_TextureFamily)
+          ->Args({int(i), side})
+          ->Unit(benchmark::kMillisecond)
+          ->Iterations(1)
+          ->UseRealTime();
   std::vector<std::string> files;
   for (const auto& e : std::filesystem::directory_iterator("scenes"))
     if (e.path().extension() == ".pbrt") files.push_back(e.path().string());

@@ -545,3 +545,541 @@ TEST(Envmap, BadInput) {
   const std::string text = scene_text(env_line("ok.exr"));
   EXPECT_NO_THROW(basalt::build_tables(basalt::load_scene_from_string(text, "t.pbrt", d.string())));
 }
+
+// ---- Lat-long and cube maps (docs/textures-spec.md 6.8) ------------------------------------
+
+namespace {
+
+std::string mapping_arg(const std::string& m) { return "\"string mapping\" [ \"" + m + "\" ] "; }
+
+// World direction of a direction wl in the light's frame (the transpose of light_from_world).
+glm::vec3 light_to_world(const gpu::Light& l, glm::vec3 wl) {
+  return glm::transpose(glm::mat3(l.light_from_world)) * wl;
+}
+
+// Integral over the sphere in the light's frame by the midpoint rule in (theta, phi), with
+// the sin theta Jacobian: f(world direction) is called at the cell centres. Exact for
+// integrands that are constant on (theta, phi) cells after the Jacobian (a lat-long pdf).
+template <typename F>
+double theta_phi_integral(const gpu::Light& l, int nt, int np, F f) {
+  double sum = 0.0;
+  for (int i = 0; i < nt; ++i) {
+    const double th = M_PI * (i + 0.5) / nt;
+    for (int j = 0; j < np; ++j) {
+      const double ph = 2.0 * M_PI * (j + 0.5) / np;
+      const glm::vec3 wl(float(std::sin(th) * std::cos(ph)), float(std::sin(th) * std::sin(ph)),
+                         float(std::cos(th)));
+      sum += f(light_to_world(l, wl)) * std::sin(th);
+    }
+  }
+  return sum * (M_PI / nt) * (2.0 * M_PI / np);
+}
+
+// Integral over the sphere in the light's frame face by face, midpoint rule in the face
+// coordinates (a, b) with the 1 / r^3 Jacobian (k x k cells per face).
+template <typename F>
+double cube_integral(const gpu::Light& l, int k, F f) {
+  double sum = 0.0;
+  for (int face = 0; face < 6; ++face)
+    for (int i = 0; i < k; ++i)
+      for (int j = 0; j < k; ++j) {
+        const float fu = (i + 0.5f) / k, fv = (j + 0.5f) / k;
+        const double a = 2.0 * fu - 1.0, b = 2.0 * fv - 1.0;
+        const double r2 = 1.0 + a * a + b * b;
+        sum += f(light_to_world(l, cube_face_uv_to_dir(face, fu, fv))) / (r2 * std::sqrt(r2));
+      }
+  return sum * 4.0 / (double(k) * k);
+}
+
+// A smooth lat-long / cube-strip test map of w x h with a dark block and (if spot) a bright
+// texel at (w / 4, h / 3) of spot times (40, 30, 20).
+glm::vec3 structured_wh(int x, int y, int w, int h, float spot = 1.0f) {
+  const float fx = (x + 0.5f) / w, fy = (y + 0.5f) / h;
+  glm::vec3 c(0.2f + fx, 0.5f + 0.5f * fy, 1.0f - 0.7f * fx * fy);
+  if (x < w / 2 && y >= h / 2 && y < (3 * h) / 4) c *= 0.02f;
+  if (spot > 0.0f && x == w / 4 && y == h / 3) c = spot * glm::vec3(40.0f, 30.0f, 20.0f);
+  return c;
+}
+
+}  // namespace
+
+// Lat-long: direction -> uv -> direction and uv -> direction -> uv round trips; row 0 is +z,
+// u grows with phi from +x towards +y.
+TEST(Envmap, LatLongRoundTrip) {
+  std::mt19937 rng(17);
+  std::normal_distribution<float> N;
+  std::vector<glm::vec3> dirs = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0},
+                                 {0, 0, 1}, {0, 0, -1}, safe_normalize(glm::vec3(1, -1, 0))};
+  for (int i = 0; i < 20000; ++i) dirs.push_back(safe_normalize(glm::vec3(N(rng), N(rng), N(rng))));
+  for (const glm::vec3& w : dirs) {
+    const glm::vec2 uv = latlong_dir_to_uv(w);
+    ASSERT_TRUE(uv.x >= 0.0f && uv.x <= 1.0f && uv.y >= 0.0f && uv.y <= 1.0f) << uv.x << " " << uv.y;
+    const glm::vec3 w2 = latlong_uv_to_dir(uv);
+    ASSERT_LT(glm::length(w2 - w), 2e-3f) << w.x << " " << w.y << " " << w.z;
+    // Away from the poles (where acos loses precision) the round trip is tight.
+    if (std::fabs(w.z) < 0.99f) {
+      ASSERT_LT(glm::length(w2 - w), 2e-6f) << w.x << " " << w.y << " " << w.z;
+    }
+  }
+  std::uniform_real_distribution<float> U(0.001f, 0.999f);
+  for (int i = 0; i < 20000; ++i) {
+    const glm::vec2 uv(U(rng), U(rng));
+    const glm::vec3 w = latlong_uv_to_dir(uv);
+    ASSERT_NEAR(glm::length(w), 1.0f, 2e-6f);
+    const glm::vec2 uv2 = latlong_dir_to_uv(w);
+    ASSERT_NEAR(uv2.x, uv.x, 2e-5f);
+    ASSERT_NEAR(uv2.y, uv.y, 2e-5f);
+  }
+  EXPECT_NEAR(latlong_uv_to_dir({0.3f, 0.0f}).z, 1.0f, 1e-7f);
+  EXPECT_NEAR(latlong_uv_to_dir({0.3f, 1.0f}).z, -1.0f, 1e-7f);
+  EXPECT_NEAR(latlong_uv_to_dir({0.25f, 0.5f}).y, 1.0f, 1e-6f);
+  EXPECT_NEAR(latlong_dir_to_uv({0, -1, 0}).x, 0.75f, 1e-6f);
+  EXPECT_EQ(latlong_dir_to_uv({1, 0, 0}).x, 0.0f);
+}
+
+// Cube: every face's centre, orientation (OpenGL), direction -> (face, a, b) -> direction on
+// random directions, on the 12 edges (two components tie) and the 8 corners (three tie),
+// and the strip uv of a direction.
+TEST(Envmap, CubeRoundTrip) {
+  const glm::vec3 centres[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  // OpenGL: (fu, fv) = (1, 0.5) goes towards the face's sc axis, (0.5, 1) towards tc.
+  const glm::vec3 sc[6] = {{0, 0, -1}, {0, 0, 1}, {1, 0, 0}, {1, 0, 0}, {1, 0, 0}, {-1, 0, 0}};
+  const glm::vec3 tc[6] = {{0, -1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}, {0, -1, 0}, {0, -1, 0}};
+  for (int f = 0; f < 6; ++f) {
+    EXPECT_LT(glm::length(cube_face_uv_to_dir(f, 0.5f, 0.5f) - centres[f]), 1e-7f) << f;
+    EXPECT_LT(glm::length(cube_face_uv_to_dir(f, 1.0f, 0.5f) - safe_normalize(centres[f] + sc[f])), 1e-6f) << f;
+    EXPECT_LT(glm::length(cube_face_uv_to_dir(f, 0.5f, 1.0f) - safe_normalize(centres[f] + tc[f])), 1e-6f) << f;
+    float a, b;
+    EXPECT_EQ(cube_face_coords(centres[f], a, b), f);
+    const glm::vec2 uv = cube_dir_to_uv(centres[f]);
+    EXPECT_EQ(uv.x, 0.5f);
+    EXPECT_NEAR(uv.y, (f + 0.5f) / 6.0f, 1e-7f);
+  }
+  std::mt19937 rng(23);
+  std::normal_distribution<float> N;
+  std::vector<glm::vec3> dirs;
+  for (int i = 0; i < 20000; ++i) dirs.push_back(safe_normalize(glm::vec3(N(rng), N(rng), N(rng))));
+  // Edges: two components of equal magnitude (the third random in between), both signs.
+  std::uniform_real_distribution<float> U(-0.999f, 0.999f);
+  for (int k = 0; k < 3; ++k)
+    for (float s0 : {-1.0f, 1.0f})
+      for (float s1 : {-1.0f, 1.0f}) {
+        for (float t : {0.0f, 0.5f, -0.3f, U(rng), U(rng)}) {
+          glm::vec3 v;
+          v[k] = s0;
+          v[(k + 1) % 3] = s1;
+          v[(k + 2) % 3] = t;
+          dirs.push_back(safe_normalize(v));
+        }
+      }
+  for (float x : {-1.0f, 1.0f})
+    for (float y : {-1.0f, 1.0f})
+      for (float z : {-1.0f, 1.0f}) dirs.push_back(safe_normalize(glm::vec3(x, y, z)));
+  int ties = 0;
+  for (const glm::vec3& w : dirs) {
+    float a, b;
+    const int face = cube_face_coords(w, a, b);
+    ASSERT_TRUE(face >= 0 && face < 6);
+    ASSERT_TRUE(a >= -1.0f && a <= 1.0f && b >= -1.0f && b <= 1.0f) << a << " " << b;
+    ties += std::fabs(a) == 1.0f || std::fabs(b) == 1.0f;
+    const float fu = (a + 1.0f) * 0.5f, fv = (b + 1.0f) * 0.5f;
+    const glm::vec3 w2 = cube_face_uv_to_dir(face, fu, fv);
+    ASSERT_LT(glm::length(w2 - w), 1e-6f) << w.x << " " << w.y << " " << w.z << " face " << face;
+    const glm::vec2 uv = cube_dir_to_uv(w);
+    ASSERT_EQ(uv.x, fu);
+    ASSERT_NEAR(uv.y * 6.0f, float(face) + fv, 1e-6f);
+  }
+  EXPECT_GE(ties, 3 * 4 * 5 + 8);
+  // Random face uv -> direction -> the same face and uv, on every face.
+  std::uniform_real_distribution<float> V(0.0f, 1.0f);
+  for (int f = 0; f < 6; ++f)
+    for (int i = 0; i < 2000; ++i) {
+      const float fu = V(rng), fv = V(rng);
+      const glm::vec3 w = cube_face_uv_to_dir(f, fu, fv);
+      ASSERT_NEAR(glm::length(w), 1.0f, 2e-6f);
+      float a, b;
+      const int face = cube_face_coords(w, a, b);
+      if (fu > 1e-5f && fu < 1.0f - 1e-5f && fv > 1e-5f && fv < 1.0f - 1e-5f) {
+        ASSERT_EQ(face, f);
+      }
+      if (face == f) {
+        ASSERT_NEAR((a + 1.0f) * 0.5f, fu, 2e-6f);
+        ASSERT_NEAR((b + 1.0f) * 0.5f, fv, 2e-6f);
+      }
+    }
+}
+
+// Tables of lat-long and cube maps: data.w, the MipLevel of the whole image, distributions
+// over half-texel cells weighted by sin theta, each with the largest texel its bilinear
+// lookup reads (lat-long), or over the texels weighted by 1 / r^3 (cube).
+TEST(Envmap, LatLongCubeTables) {
+  const fs::path d = temp_dir("llc_tables");
+  const int w = 24, h = 10;
+  const std::string ll = write_map(d, "ll.exr", w, h, [&](int x, int y) { return structured_wh(x, y, w, h); });
+  const int n = 4;
+  const std::string cb = write_map(d, "cb.exr", n, 6 * n, [&](int x, int y) { return structured_wh(x, y, n, 6 * n); });
+  for (int mapping : {0, 1, 2}) {
+    if (mapping == 0) {
+      const std::string sq = write_map(d, "sq.exr", 8, 8, [](int, int) { return glm::vec3(1.0f); });
+      const SceneTables t = basalt::test::tables_from_string(scene_text(env_line(sq, mapping_arg("equalarea"))));
+      EXPECT_EQ(env_light(t).data.w, 0u);
+      continue;
+    }
+    const int W = mapping == 1 ? w : n, H = mapping == 1 ? h : 6 * n;
+    const SceneTables t = basalt::test::tables_from_string(
+        scene_text(env_line(mapping == 1 ? ll : cb, mapping_arg(mapping == 1 ? "latlong" : "cube"))));
+    const gpu::Light& l = env_light(t);
+    EXPECT_EQ(l.data.w, std::uint32_t(mapping));
+    const gpu::MipLevel& m = t.mip_levels.at(l.data.x);
+    EXPECT_EQ(m.width, std::uint32_t(W));
+    EXPECT_EQ(m.height, std::uint32_t(H));
+    EXPECT_EQ(m.channels, 3u);
+    const std::uint32_t o = l.data.y;
+    const int nu = mapping == 1 ? 2 * W : W, nv = mapping == 1 ? 2 * H : H;
+    ASSERT_EQ(t.tex_data.at(o), float(nu));
+    ASSERT_EQ(t.tex_data.at(o + 1), float(nv));
+    auto f_of = [&](int x, int y) {
+      const glm::vec3 px = structured_wh(x, y, W, H);
+      return (px.x + px.y + px.z) / 3.0f;
+    };
+    for (int y = 0; y < nv; ++y)
+      for (int x = 0; x < nu; ++x) {
+        double wt;
+        float fv;
+        if (mapping == 1) {
+          wt = std::sin(M_PI * (y + 0.5) / nv);
+          // Cell x covers texel-centre coordinates [x / 2 - 0.5, x / 2): taps floor(x/2 - 0.5) + {0, 1}.
+          const int x0 = int(std::floor((x - 1) / 2.0)), y0 = int(std::floor((y - 1) / 2.0));
+          fv = 0.0f;
+          for (int dy = 0; dy < 2; ++dy)
+            for (int dx = 0; dx < 2; ++dx)
+              fv = std::max(fv, f_of((x0 + dx + W) % W, (y0 + dy + H) % H));
+        } else {
+          const double a = 2.0 * (x + 0.5) / n - 1.0, b = 2.0 * ((y % n) + 0.5) / n - 1.0;
+          wt = 1.0 / std::pow(1.0 + a * a + b * b, 1.5);
+          fv = f_of(x, y);
+        }
+        const float fx = t.tex_data.at(o + 5 + 2 * nv + y * (2 * nu + 2) + x);
+        ASSERT_EQ(fx, fv * float(wt)) << x << " " << y;
+      }
+  }
+}
+
+// env_pdf integrates to 1 over the sphere for lat-long (several sizes) and cube maps, both
+// distributions, a rotated frame; the compensated pdf is 0 in the dark block.
+TEST(Envmap, LatLongCubePdfIntegratesToOne) {
+  const fs::path d = temp_dir("llc_pdf");
+  struct Case { std::string mapping; int w, h; };
+  for (const Case& c : {Case{"latlong", 32, 16}, Case{"latlong", 7, 5}, Case{"latlong", 1, 1},
+                        Case{"cube", 8, 48}, Case{"cube", 1, 6}}) {
+    const std::string path = write_map(d, c.mapping + std::to_string(c.w) + ".exr", c.w, c.h,
+                                       [&](int x, int y) { return structured_wh(x, y, c.w, c.h); });
+    const SceneTables t = basalt::test::tables_from_string(
+        scene_text(env_line(path, mapping_arg(c.mapping)), "Rotate 37 1 2 3"));
+    const gpu::Light& l = env_light(t);
+    for (bool comp : {false, true}) {
+      auto pdf = [&](glm::vec3 w) { return double(env_pdf(t, l, w, comp)); };
+      // In the map's own coordinates the quadrature is exact but for texel edges; on a world
+      // (z, phi) grid it checks the frame as well.
+      const double own = c.mapping == "latlong" ? theta_phi_integral(l, 640, 1280, pdf)
+                                                : cube_integral(l, 384, pdf);
+      EXPECT_NEAR(own, 1.0, 1e-3) << c.mapping << " " << c.w << " compensated " << comp;
+      if (c.mapping == "cube") {
+        EXPECT_NEAR(sphere_integral(800, 1600, pdf), 1.0, 2e-3) << c.w << " compensated " << comp;
+      }
+    }
+  }
+  // The dark block (x < w/2, h/2 <= y < 3h/4) of a lat-long map has compensated pdf 0.
+  const std::string path = write_map(d, "dark.exr", 32, 16, [&](int x, int y) { return structured_wh(x, y, 32, 16); });
+  const SceneTables t = basalt::test::tables_from_string(scene_text(env_line(path, mapping_arg("latlong"))));
+  const gpu::Light& l = env_light(t);
+  const glm::vec3 w = latlong_uv_to_dir({0.25f, 0.6f});
+  EXPECT_EQ(env_pdf(t, l, w, true), 0.0f);
+  EXPECT_GT(env_pdf(t, l, w, false), 0.0f);
+  // Poles: pdf 0 (sin theta = 0), never negative; Le is finite.
+  for (glm::vec3 p : {glm::vec3(0, 0, 1), glm::vec3(0, 0, -1)}) {
+    EXPECT_EQ(env_pdf(t, l, p, false), 0.0f);
+    EXPECT_TRUE(std::isfinite(env_le(t, l, p).x));
+  }
+}
+
+// Sampling matches env_pdf (chi-square, Sidak-corrected over the four cases: lat-long and
+// cube, both distributions) on maps with a bright texel, in a rotated frame. Bins are cells
+// of the light's frame, half a texel wide: (theta, phi) cells for lat-long, (a, b) cells of
+// each face for the cube; the expected counts integrate env_pdf over each cell (in solid
+// angle: sin theta or 1 / r^3 Jacobian; env_pdf times it is constant on a cell, so midpoint
+// quadrature is exact). Each sample's pdf and radiance are env_pdf and env_le at its
+// direction up to rounding at texel edges.
+TEST(Envmap, LatLongCubeSamplingMatchesPdfChi2) {
+  const fs::path d = temp_dir("llc_chi2");
+  const int samples = 300000;
+  const double alpha = basalt::test::bsdf::sidak(0.01, 4);
+  for (const std::string mapping : {"latlong", "cube"}) {
+    const bool ll = mapping == "latlong";
+    const int W = ll ? 32 : 8, H = ll ? 16 : 48;
+    // A spot of f = 7.5: it takes a good share of the samples, but the compensated
+    // distribution (the spot raises the average) still covers much of the map.
+    const std::string path = write_map(d, mapping + ".exr", W, H,
+                                       [&](int x, int y) { return structured_wh(x, y, W, H, 0.25f); });
+    const SceneTables t = basalt::test::tables_from_string(
+        scene_text(env_line(path, mapping_arg(mapping)), "Rotate -50 0.3 1 0.2"));
+    const gpu::Light& l = env_light(t);
+    const glm::mat3 to_light(l.light_from_world);
+    const int nt = 2 * H, np = 2 * W, k = 2 * W, sub = 4;  // lat-long cells; cube cells per face side
+    for (bool comp : {false, true}) {
+      std::vector<double> expected, observed;
+      std::function<int(glm::vec3)> bin_of;
+      if (ll) {
+        bin_of = [=](glm::vec3 w) {
+          const glm::vec2 uv = latlong_dir_to_uv(safe_normalize(to_light * w));
+          return std::clamp(int(uv.y * nt), 0, nt - 1) * np + std::clamp(int(uv.x * np), 0, np - 1);
+        };
+        expected.assign(nt * np, 0.0);
+        for (int i = 0; i < nt; ++i)
+          for (int j = 0; j < np; ++j) {
+            double sum = 0.0;
+            for (int a = 0; a < sub; ++a)
+              for (int b = 0; b < sub; ++b) {
+                const double th = M_PI * (i + (a + 0.5) / sub) / nt;
+                const double ph = 2.0 * M_PI * (j + (b + 0.5) / sub) / np;
+                const glm::vec3 wl(float(std::sin(th) * std::cos(ph)),
+                                   float(std::sin(th) * std::sin(ph)), float(std::cos(th)));
+                sum += env_pdf(t, l, light_to_world(l, wl), comp) * std::sin(th);
+              }
+            expected[i * np + j] =
+                sum / (sub * sub) * (M_PI / nt) * (2.0 * M_PI / np) * samples;
+          }
+      } else {
+        bin_of = [=](glm::vec3 w) {
+          float a, b;
+          const int f = cube_face_coords(safe_normalize(to_light * w), a, b);
+          const int i = std::clamp(int((a + 1.0f) * 0.5f * k), 0, k - 1);
+          const int j = std::clamp(int((b + 1.0f) * 0.5f * k), 0, k - 1);
+          return (f * k + j) * k + i;
+        };
+        expected.assign(6 * k * k, 0.0);
+        for (int f = 0; f < 6; ++f)
+          for (int j = 0; j < k; ++j)
+            for (int i = 0; i < k; ++i) {
+              double sum = 0.0;
+              for (int a = 0; a < sub; ++a)
+                for (int b = 0; b < sub; ++b) {
+                  const float fu = (i + (a + 0.5f) / sub) / k, fv = (j + (b + 0.5f) / sub) / k;
+                  const double ca = 2.0 * fu - 1.0, cb = 2.0 * fv - 1.0;
+                  const double r2 = 1.0 + ca * ca + cb * cb;
+                  sum += env_pdf(t, l, light_to_world(l, cube_face_uv_to_dir(f, fu, fv)), comp) /
+                         (r2 * std::sqrt(r2));
+                }
+              expected[(f * k + j) * k + i] = sum / (sub * sub) * 4.0 / (k * k) * samples;
+            }
+      }
+      observed.assign(expected.size(), 0.0);
+      std::mt19937 rng(comp ? 31 : 29);
+      std::uniform_real_distribution<float> U(0.0f, 1.0f);
+      int pdf_mismatch = 0, le_mismatch = 0, failed = 0;
+      for (int s = 0; s < samples; ++s) {
+        glm::vec3 wi, le;
+        float pdf;
+        if (!env_sample(t, l, glm::vec2(U(rng), U(rng)), comp, wi, pdf, le)) {
+          ++failed;
+          continue;
+        }
+        ASSERT_NEAR(glm::length(wi), 1.0f, 1e-5f);
+        ASSERT_GT(pdf, 0.0f);
+        observed[bin_of(wi)] += 1.0;
+        const float p2 = env_pdf(t, l, wi, comp);
+        if (std::fabs(p2 - pdf) > 1e-4f * pdf) ++pdf_mismatch;
+        if (glm::length(env_le(t, l, wi) - le) > 1e-4f * glm::length(le)) ++le_mismatch;
+      }
+      EXPECT_EQ(failed, 0);
+      EXPECT_LT(pdf_mismatch, samples / 1000) << mapping << " " << comp;
+      EXPECT_LT(le_mismatch, samples / 1000) << mapping << " " << comp;
+      int dof = 0;
+      const double p = chi2_p_value(expected, observed, dof);
+      EXPECT_GT(dof, 100) << mapping << " compensated " << comp;
+      EXPECT_GT(p, alpha) << mapping << " compensated " << comp << " dof " << dof;
+    }
+  }
+}
+
+// A lat-long map, black but for one bright texel, is sampled where its bilinear Le reaches
+// (the texel and half a texel around it; compensated: always, up to rounding); a cube map with one bright texel on each of two
+// faces is sampled in those two texels in proportion to their solid angles, with Le the
+// texel's value.
+TEST(Envmap, LatLongCubeBrightTexelIsSampled) {
+  const fs::path d = temp_dir("llc_bright");
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> U(0.0f, 1.0f);
+  const int N = 20000;
+  {
+    const int w = 32, h = 16, bx = 21, by = 4;
+    const std::string path = write_map(d, "ll.exr", w, h, [&](int x, int y) {
+      return x == bx && y == by ? glm::vec3(1000.0f, 800.0f, 600.0f) : glm::vec3(0.001f);
+    });
+    const SceneTables t = basalt::test::tables_from_string(scene_text(env_line(path, mapping_arg("latlong"))));
+    const gpu::Light& l = env_light(t);
+    for (bool comp : {false, true}) {
+      int inside = 0, near = 0, lit = 0;
+      for (int s = 0; s < N; ++s) {
+        glm::vec3 wi, le;
+        float pdf;
+        ASSERT_TRUE(env_sample(t, l, glm::vec2(U(rng), U(rng)), comp, wi, pdf, le));
+        const glm::vec2 uv = latlong_dir_to_uv(wi);
+        inside += int(uv.x * w) == bx && int(uv.y * h) == by;
+        near += uv.x > (bx - 0.5f - 1e-4f) / w && uv.x < (bx + 1.5f + 1e-4f) / w &&
+                uv.y > (by - 0.5f - 1e-4f) / h && uv.y < (by + 1.5f + 1e-4f) / h;
+        lit += le.x > 0.01f;  // some of the bright texel in the bilinear blend
+        ASSERT_GT(le.x, 0.0f);
+      }
+      if (comp) {
+        EXPECT_EQ(near, N);
+        EXPECT_GT(lit, N - N / 1000);
+      } else {
+        EXPECT_GT(near, int(0.99 * N));
+        EXPECT_GT(lit, int(0.99 * N));
+      }
+      // The texel holds the middle 2 x 2 of the 4 x 4 half-texel cells (about a quarter).
+      EXPECT_GT(inside, N / 5);
+    }
+    // Le at the texel's centre is the texel (bilinear weights 1, 0, 0, 0).
+    const glm::vec3 centre = latlong_uv_to_dir({(bx + 0.5f) / w, (by + 0.5f) / h});
+    const glm::vec3 le = env_le(t, l, centre);
+    EXPECT_NEAR(le.x, 1000.0f, 0.01f);
+    EXPECT_NEAR(le.z, 600.0f, 0.01f);
+    // The compensated pdf in half-texel cell (2 bx, 2 by): the 4 x 4 cells around the texel
+    // share it in proportion to sin theta of their rows.
+    const glm::vec3 q = latlong_uv_to_dir({(bx + 0.25f) / w, (by + 0.25f) / h});
+    double rows = 0.0;
+    for (int r = 2 * by - 1; r <= 2 * by + 2; ++r) rows += 4.0 * std::sin(M_PI * (r + 0.5) / (2 * h));
+    const double expect = 4.0 * w * h / rows / (2.0 * M_PI * M_PI);
+    EXPECT_NEAR(env_pdf(t, l, q, true), expect, 1e-4 * expect);
+  }
+  {
+    const int n = 8;
+    // Face 1 (-x) texel (2, 5) and face 4 (+z) texel (6, 1).
+    const glm::ivec2 t1(2, 1 * n + 5), t2(6, 4 * n + 1);
+    const glm::vec3 c1(500.0f, 400.0f, 300.0f), c2(200.0f, 900.0f, 100.0f);
+    const std::string path = write_map(d, "cube.exr", n, 6 * n, [&](int x, int y) {
+      if (glm::ivec2(x, y) == t1) return c1;
+      if (glm::ivec2(x, y) == t2) return c2;
+      return glm::vec3(0.001f);
+    });
+    const SceneTables t = basalt::test::tables_from_string(
+        scene_text(env_line(path, mapping_arg("cube") + "\"float scale\" [ 2 ]")));
+    const gpu::Light& l = env_light(t);
+    auto texel_of = [&](glm::vec3 w) {
+      float a, b;
+      const int f = cube_face_coords(w, a, b);
+      return glm::ivec2(std::min(int((a + 1.0f) * 0.5f * n), n - 1),
+                        f * n + std::min(int((b + 1.0f) * 0.5f * n), n - 1));
+    };
+    auto jac = [&](glm::ivec2 tx) {
+      const double a = 2.0 * (tx.x + 0.5) / n - 1.0, b = 2.0 * ((tx.y % n) + 0.5) / n - 1.0;
+      return 1.0 / std::pow(1.0 + a * a + b * b, 1.5);
+    };
+    const double m1 = (c1.x + c1.y + c1.z) / 3.0 * jac(t1), m2 = (c2.x + c2.y + c2.z) / 3.0 * jac(t2);
+    int in1 = 0, in2 = 0, bright = 0;
+    for (int s = 0; s < N; ++s) {
+      glm::vec3 wi, le;
+      float pdf;
+      ASSERT_TRUE(env_sample(t, l, glm::vec2(U(rng), U(rng)), true, wi, pdf, le));
+      const glm::ivec2 tx = texel_of(wi);
+      in1 += tx == t1;
+      in2 += tx == t2;
+      bright += le == 2.0f * c1 || le == 2.0f * c2;
+    }
+    EXPECT_EQ(bright, N);
+    EXPECT_GT(in1 + in2, N - N / 1000);
+    const double frac1 = m1 / (m1 + m2);
+    EXPECT_NEAR(double(in1) / N, frac1, 4.0 * std::sqrt(frac1 * (1 - frac1) / N));
+    // Directions through each texel's centre: Le is the texel, pdf the texel's share over
+    // its solid angle (dw = 24 du dv / r^3 on the strip).
+    for (int which = 0; which < 2; ++which) {
+      const glm::ivec2 tx = which == 0 ? t1 : t2;
+      const glm::vec3 w = cube_face_uv_to_dir(tx.y / n, (tx.x + 0.5f) / n, ((tx.y % n) + 0.5f) / n);
+      EXPECT_EQ(texel_of(w), tx);
+      EXPECT_EQ(env_le(t, l, w), 2.0f * (which == 0 ? c1 : c2));
+      const double share = (which == 0 ? m1 : m2) / (m1 + m2);
+      const double expect = share * (n * 6.0 * n) / (24.0 * jac(tx));
+      EXPECT_NEAR(env_pdf(t, l, w, true), expect, 1e-4 * expect) << which;
+    }
+  }
+}
+
+// Constant lat-long and cube maps render as a uniform infinite light of that radiance (the
+// furnace pattern of ConstantMapMatchesUniformLight).
+TEST(Envmap, LatLongCubeConstantMapMatchesUniformLight) {
+  const fs::path d = temp_dir("llc_constant");
+  const glm::vec3 L(0.7f, 0.5f, 0.3f);
+  const std::string body =
+      "Material \"diffuse\" \"rgb reflectance\" [ 0.5 0.5 0.5 ]\n"
+      "Shape \"sphere\" \"float radius\" [ 1 ]\n";
+  const SceneTables tu = basalt::test::tables_from_string(
+      scene_text("LightSource \"infinite\" \"rgb L\" [ 0.7 0.5 0.3 ]", "", body, 5, 16));
+  for (const std::string mapping : {"latlong", "cube"}) {
+    const int w = mapping == "cube" ? 8 : 24, h = mapping == "cube" ? 48 : 12;
+    const std::string path = write_map(d, mapping + ".exr", w, h, [&](int, int) { return L; });
+    const SceneTables te = basalt::test::tables_from_string(
+        scene_text(env_line(path, mapping_arg(mapping)), "Rotate 30 0 1 1", body, 5, 16));
+    const std::uint32_t spp = 64;
+    double hit_sum[2] = {0.0, 0.0};
+    int hits = 0;
+    bool misses_close = true;
+    for (std::uint32_t y = 0; y < 16; ++y)
+      for (std::uint32_t x = 0; x < 16; ++x)
+        for (std::uint32_t s = 0; s < spp; ++s) {
+          const bool hit = intersect_closest(te, camera_ray(te, x, y, s)).valid();
+          const glm::vec3 Le = path_radiance(te, x, y, s);
+          const glm::vec3 Lu = path_radiance(tu, x, y, s);
+          ASSERT_TRUE(std::isfinite(Le.x) && std::isfinite(Le.y) && std::isfinite(Le.z));
+          if (!hit) {
+            // Lat-long Le is a bilinear blend of equal texels: L up to rounding.
+            misses_close = misses_close && glm::length(Le - L) <= 1e-6f && Lu == L;
+          } else {
+            ++hits;
+            hit_sum[0] += Le.x;
+            hit_sum[1] += Lu.x;
+          }
+        }
+    EXPECT_TRUE(misses_close) << mapping;
+    ASSERT_GT(hits, 1000);
+    EXPECT_NEAR(hit_sum[0] / hits, 0.5 * L.x, 0.02 * L.x) << mapping;
+    EXPECT_NEAR(hit_sum[0] / hits, hit_sum[1] / hits, 0.03 * L.x) << mapping;
+  }
+}
+
+// Bad input for the mappings: an unknown "mapping" (located at the parameter), a cube image
+// that is not n x 6n (naming the file and both sizes), "illuminance" with a non-equal-area
+// map; lat-long accepts any size.
+TEST(Envmap, LatLongCubeBadInput) {
+  const fs::path d = temp_dir("llc_bad");
+  const std::string sq = write_map(d, "sq.exr", 8, 8, [](int, int) { return glm::vec3(1.0f); });
+  std::string e = error_of(scene_text(env_line(sq, mapping_arg("mercator"))));
+  EXPECT_NE(e.find("t.pbrt:10:"), std::string::npos) << e;
+  EXPECT_NE(e.find("mercator"), std::string::npos) << e;
+  EXPECT_NE(e.find("\"mapping\""), std::string::npos) << e;
+  // The location is the parameter's, not the directive's (column 1).
+  EXPECT_EQ(e.find("t.pbrt:10:1:"), std::string::npos) << e;
+
+  e = error_of(scene_text(env_line(sq, mapping_arg("cube"))));
+  EXPECT_NE(e.find("t.pbrt:10:"), std::string::npos) << e;
+  EXPECT_NE(e.find(sq), std::string::npos) << e;
+  EXPECT_NE(e.find("(8, 8)"), std::string::npos) << e;
+  EXPECT_NE(e.find("n x 6n"), std::string::npos) << e;
+  const std::string tall = write_map(d, "tall.exr", 8, 40, [](int, int) { return glm::vec3(1.0f); });
+  e = error_of(scene_text(env_line(tall, mapping_arg("cube"))));
+  EXPECT_NE(e.find("(8, 40)"), std::string::npos) << e;
+
+  // A strip is not square: the default (equal-area) mapping refuses it.
+  const std::string strip = write_map(d, "strip.exr", 4, 24, [](int, int) { return glm::vec3(1.0f); });
+  e = error_of(scene_text(env_line(strip)));
+  EXPECT_NE(e.find("non-square"), std::string::npos) << e;
+  EXPECT_EQ(error_of(scene_text(env_line(strip, mapping_arg("cube")))), "");
+  EXPECT_EQ(error_of(scene_text(env_line(strip, mapping_arg("latlong")))), "");
+  const std::string odd = write_map(d, "odd.exr", 5, 3, [](int, int) { return glm::vec3(1.0f); });
+  EXPECT_EQ(error_of(scene_text(env_line(odd, mapping_arg("latlong")))), "");
+
+  e = error_of(scene_text(env_line(odd, mapping_arg("latlong") + "\"float illuminance\" [ 5 ]")));
+  EXPECT_NE(e.find("illuminance"), std::string::npos) << e;
+  EXPECT_NE(e.find("not supported yet"), std::string::npos) << e;
+}

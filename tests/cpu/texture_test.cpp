@@ -54,11 +54,69 @@ TEST(Noise, PropertiesCpu) {
       1000000);
 }
 
+/// Improved Perlin noise in double at a point given in double (the test's own oracle: Perlin
+/// 2002 with pbrt-v4's permutation from the tables, no float anywhere).
+double perlin_double(const SceneTables& t, glm::dvec3 p) {
+  auto perm = [&](long i) { return long(t.tex_data[t.globals.tex_tables.x + std::size_t(i)]); };
+  auto grad = [&](long x, long y, long z, double dx, double dy, double dz) {
+    const long h = perm(perm(perm(x) + y) + z) & 15;
+    const double u = (h < 8 || h == 12 || h == 13) ? dx : dy;
+    const double v = (h < 4 || h == 12 || h == 13) ? dy : dz;
+    return ((h & 1) ? -u : u) + ((h & 2) ? -v : v);
+  };
+  auto fade = [](double x) { return x * x * x * (x * (x * 6 - 15) + 10); };
+  auto lerp = [](double a, double x, double y) { return (1 - a) * x + a * y; };
+  const glm::dvec3 f = glm::floor(p), d = p - f;
+  const long ix = long(f.x) & 255, iy = long(f.y) & 255, iz = long(f.z) & 255;
+  const double wx = fade(d.x), wy = fade(d.y), wz = fade(d.z);
+  auto g = [&](int a, int b, int c) { return grad(ix + a, iy + b, iz + c, d.x - a, d.y - b, d.z - c); };
+  return lerp(wz, lerp(wy, lerp(wx, g(0, 0, 0), g(1, 0, 0)), lerp(wx, g(0, 1, 0), g(1, 1, 0))),
+              lerp(wy, lerp(wx, g(0, 0, 1), g(1, 0, 1)), lerp(wx, g(0, 1, 1), g(1, 1, 1))));
+}
+
+TEST(Noise, SplitPrecisionKeepsLargeCoordinates) {
+  // Issue 8 item 8: noise(lambda p) for |p| up to 1e6 and the octave frequencies of fbm
+  // (lambda = 1.99^i, i < 9) against the double-precision oracle. pbrt-v4's fp32 product
+  // lambda p loses the lattice offset (beyond 2^24 it has none: the noise is 0 there, and
+  // below it the offset is quantised to whole fractions of a cell); the split lookup keeps it.
+  const SceneTables t = textured("Shape \"sphere\"\n");
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> U(-1.0f, 1.0f);
+  double worst_split = 0.0, worst_fp32 = 0.0;
+  for (int i = 0; i < 200000; ++i) {
+    const float range = i % 2 ? 1e6f : 1e4f;
+    const glm::vec3 p(range * U(rng), range * U(rng), range * U(rng));
+    float lambda = 1.0f;
+    for (int k = 0; k < i % 9; ++k) lambda *= 1.99f;
+    const glm::dvec3 exact = double(lambda) * glm::dvec3(p);  // exact: a float times a float
+    const double ref = perlin_double(t, exact);
+    worst_split = std::max(worst_split,
+                           std::fabs(double(cpu::perlin_noise_scaled(t, lambda, p, true)) - ref));
+    worst_fp32 = std::max(worst_fp32,
+                          std::fabs(double(cpu::perlin_noise_scaled(t, lambda, p, false)) - ref));
+  }
+  std::printf("  noise(lambda p), |p| <= 1e6: worst error split %.3g, fp32 %.3g\n", worst_split,
+              worst_fp32);
+  EXPECT_LT(worst_split, 1e-5);
+  // The failure the split mode fixes: pbrt-v4's fp32 lookup is off by a large part of the
+  // noise's range there.
+  EXPECT_GT(worst_fp32, 0.3);
+  // At ordinary coordinates both modes agree with the oracle within the float evaluation of
+  // the noise itself (its quintic fade cancels terms up to 15: a few 1e-6).
+  for (int i = 0; i < 10000; ++i) {
+    const glm::vec3 p(8.0f * U(rng), 8.0f * U(rng), 8.0f * U(rng));
+    const float lambda = 1.99f;
+    const double ref = perlin_double(t, double(lambda) * glm::dvec3(p));
+    EXPECT_NEAR(cpu::perlin_noise_scaled(t, lambda, p, false), ref, 1e-5);
+    EXPECT_NEAR(cpu::perlin_noise_scaled(t, lambda, p, true), ref, 1e-5);
+  }
+}
+
 TEST(Noise, FbmKeepsOctavesTheFootprintResolves) {
   const SceneTables t = textured("Shape \"sphere\"\n");
   const glm::vec3 p(0.37f, 1.21f, -2.6f);
   // Zero footprint: all octaves; pbrt-v4's octave count clamp(-1 - log2(len^2) / 2, 0, max).
-  const float all = cpu::fbm(t, p, glm::vec3(0.0f), glm::vec3(0.0f), 0.5f, 6);
+  const float all = cpu::fbm(t, p, glm::vec3(0.0f), glm::vec3(0.0f), 0.5f, 6, false);
   float manual = 0.0f, lambda = 1.0f, o = 1.0f;
   for (int i = 0; i < 6; ++i) {
     manual += o * cpu::perlin_noise(t, lambda * p);
@@ -68,7 +126,7 @@ TEST(Noise, FbmKeepsOctavesTheFootprintResolves) {
   EXPECT_FLOAT_EQ(all, manual);
   // A footprint of length 1 (log2 = 0, n = -1 -> 0 octaves) leaves only the faded partial
   // octave, whose weight SmoothStep(0, 0.3, 0.7) is 0.
-  EXPECT_EQ(cpu::fbm(t, p, glm::vec3(1.0f, 0.0f, 0.0f), glm::vec3(0.0f), 0.5f, 6), 0.0f);
+  EXPECT_EQ(cpu::fbm(t, p, glm::vec3(1.0f, 0.0f, 0.0f), glm::vec3(0.0f), 0.5f, 6, false), 0.0f);
   // Turbulence with that footprint still adds 0.2 per octave left out (pbrt-v4 quirk):
   // 0.2 * (1 + 0.5 + ... + 0.5^5) plus the partial term Lerp(0, 0.2, |n|) = 0.2.
   float expect = 0.2f, w = 1.0f;
@@ -76,7 +134,7 @@ TEST(Noise, FbmKeepsOctavesTheFootprintResolves) {
     expect += w * 0.2f;
     w *= 0.5f;
   }
-  EXPECT_NEAR(cpu::turbulence(t, p, glm::vec3(1.0f, 0.0f, 0.0f), glm::vec3(0.0f), 0.5f, 6),
+  EXPECT_NEAR(cpu::turbulence(t, p, glm::vec3(1.0f, 0.0f, 0.0f), glm::vec3(0.0f), 0.5f, 6, false),
               expect, 1e-6f);
 }
 
