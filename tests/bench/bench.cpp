@@ -83,6 +83,8 @@ enum Config : int {
   kSpecialised = 0,      // scene's features, shader chosen as basalt does (lean if it can)
   kAllFeatures = 1,      // every feature, full shader
   kSpecialisedFull = 2,  // scene's features, full shader (registered for lean scenes only)
+  kTexturesForced = 3,   // scene's features plus every texture and image-light bit (what a
+                         // scene without textures would pay if they were not specialised away)
 };
 
 /// Pipeline creation (with the driver's compile at first dispatch) and render speed for one
@@ -90,7 +92,12 @@ enum Config : int {
 void BM_Specialisation(benchmark::State& state, std::string path) {
   const auto& t = tables(path);
   const auto config = Config(state.range(0));
-  const std::uint32_t features = config == kAllFeatures ? 0xffffffffu : t.features;
+  const std::uint32_t texture_bits = basalt::gpu::FEATURE_TEXTURES | basalt::gpu::FEATURE_TEX_NOISE |
+                                     basalt::gpu::FEATURE_TEX_IMAGE |
+                                     basalt::gpu::FEATURE_LIGHT_INFINITE_IMAGE;
+  const std::uint32_t features = config == kAllFeatures      ? 0xffffffffu
+                                 : config == kTexturesForced ? t.features | texture_bits
+                                                             : t.features;
   const auto variant = config == kSpecialisedFull ? basalt::vkx::ShaderVariant::full
                                                   : basalt::vkx::ShaderVariant::automatic;
   const double samples = double(t.width()) * t.height() * kSpp;
@@ -98,7 +105,9 @@ void BM_Specialisation(benchmark::State& state, std::string path) {
   for (auto _ : state) {
     state.PauseTiming();
     basalt::vkx::GpuRenderer gpu(context(), t, features, variant);
-    state.SetLabel(std::string(config == kAllFeatures ? "all features, " : "specialised, ") +
+    state.SetLabel(std::string(config == kAllFeatures      ? "all features, "
+                               : config == kTexturesForced ? "texture code forced in, "
+                                                           : "specialised, ") +
                    gpu.variant + " shader");
     pipeline += gpu.seconds_pipeline;
     state.ResumeTiming();
@@ -206,6 +215,8 @@ void register_all() {
     auto* spec = benchmark::RegisterBenchmark(("specialisation/" + name).c_str(),
                                               BM_Specialisation, f);
     spec->ArgName("config")->Arg(kSpecialised)->Arg(kAllFeatures);
+    // Scenes without textures: what the texture code would cost them.
+    if (!(tables(f).features & basalt::gpu::FEATURE_TEXTURES)) spec->Arg(kTexturesForced);
     // Diffuse-only scenes get the lean shader: measure the full one too (the saving).
     if (basalt::vkx::GpuRenderer::lean_suffices(tables(f).features)) spec->Arg(kSpecialisedFull);
     spec->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();

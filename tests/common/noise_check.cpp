@@ -8,6 +8,15 @@
 
 namespace basalt::test {
 
+NoiseBatch pointwise(const std::function<float(glm::vec3)>& noise) {
+  return [noise](const std::vector<glm::vec3>& p) {
+    std::vector<float> v;
+    v.reserve(p.size());
+    for (const glm::vec3& x : p) v.push_back(noise(x));
+    return v;
+  };
+}
+
 void check_noise_properties(const NoiseBatch& noise, std::size_t pairs) {
   std::mt19937 rng(81);
   std::uniform_real_distribution<float> U(-1.0f, 1.0f);

@@ -17,6 +17,9 @@ using NoiseBatch = std::function<std::vector<float>(const std::vector<glm::vec3>
 ///        differences at h = 1e-2 and 1e-3 agreeing within 2e-2 (bounded second derivative).
 void check_noise_properties(const NoiseBatch& noise, std::size_t pairs);
 
+/// A NoiseBatch that calls \p noise point by point (the CPU side).
+NoiseBatch pointwise(const std::function<float(glm::vec3)>& noise);
+
 /// Slope bound of pbrt's improved Perlin noise used by check_noise_properties.
 constexpr float kNoiseLipschitz = 4.0f;
 

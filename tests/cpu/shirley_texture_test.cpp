@@ -132,14 +132,8 @@ TEST(ShirleyNoise, PropertiesCpu) {
   const SceneTables t = textured("Shape \"sphere\"\n");
   // Shirley's cubic weight has |w'| <= 1.5 and the unit gradients |g . d| <= 1: the slope stays
   // well within pbrt's bound (the check prints the largest one seen).
-  check_noise_properties(
-      [&](const std::vector<glm::vec3>& p) {
-        std::vector<float> v;
-        v.reserve(p.size());
-        for (const glm::vec3& x : p) v.push_back(cpu::shirley_noise(t, x));
-        return v;
-      },
-      1000000);
+  check_noise_properties(pointwise([&](glm::vec3 x) { return cpu::shirley_noise(t, x); }),
+                         1000000);
 }
 
 TEST(ShirleyNoise, MatchesTheSeedFormulaInDouble) {

@@ -44,14 +44,8 @@ std::string error_of(const std::string& body) {
 
 TEST(Noise, PropertiesCpu) {
   const SceneTables t = textured("Shape \"sphere\"\n");
-  check_noise_properties(
-      [&](const std::vector<glm::vec3>& p) {
-        std::vector<float> v;
-        v.reserve(p.size());
-        for (const glm::vec3& x : p) v.push_back(cpu::perlin_noise(t, x));
-        return v;
-      },
-      1000000);
+  check_noise_properties(pointwise([&](glm::vec3 x) { return cpu::perlin_noise(t, x); }),
+                         1000000);
 }
 
 /// Improved Perlin noise in double at a point given in double (the test's own oracle: Perlin

@@ -80,6 +80,31 @@ TEST(LeanVariant, SameImageAsFullForDiffuseScenes) {
   }
 }
 
+// Textures and image lights on diffuse surfaces keep the lean shader, bit for bit.
+TEST(LeanVariant, SameImageAsFullForTexturedDiffuseScenes) {
+  SceneTables t = tables_from_string(
+      "LookAt 0 2 -6  0 0.5 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n"
+      "Film \"rgb\" \"integer xresolution\" 48 \"integer yresolution\" 32\nWorldBegin\n"
+      "LightSource \"infinite\" \"string filename\" \"data/env-sky.exr\"\n"
+      "Texture \"f\" \"float\" \"fbm\"\n"
+      "Texture \"i\" \"spectrum\" \"imagemap\" \"string filename\" \"data/tex-card.png\" "
+      "\"string filter\" \"ewa\"\n"
+      "Texture \"c\" \"spectrum\" \"checkerboard\" \"float uscale\" 8 \"float vscale\" 8 "
+      "\"texture tex1\" \"i\" \"rgb tex2\" [ 0.1 0.2 0.3 ]\n"
+      "Material \"diffuse\" \"texture reflectance\" \"c\"\n"
+      "Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ] \"point3 P\" "
+      "[ -5 0 -5 5 0 -5 5 0 5 -5 0 5 ] \"point2 uv\" [ 0 0 1 0 1 1 0 1 ]\n"
+      "Texture \"s\" \"spectrum\" \"scale\" \"rgb tex\" [ 0.8 0.6 0.4 ] \"texture scale\" \"f\"\n"
+      "Material \"diffuse\" \"texture reflectance\" \"s\"\n"
+      "Shape \"sphere\" \"float radius\" 0.8\n");
+  ASSERT_TRUE(t.features & gpu::FEATURE_TEXTURES);
+  EXPECT_TRUE(vkx::GpuRenderer::lean_suffices(t.features));
+  auto lean = render_variant(t, t.features, vkx::ShaderVariant::automatic, "lean");
+  auto full = render_variant(t, t.features, vkx::ShaderVariant::full, "full");
+  ASSERT_EQ(lean.size(), full.size());
+  EXPECT_EQ(std::memcmp(lean.data(), full.data(), lean.size() * sizeof(glm::vec4)), 0);
+}
+
 // A scene with any material kind other than diffuse never gets the lean shader: not by
 // default, and asking for it is an error.
 TEST(LeanVariant, NeverForOtherMaterials) {
@@ -102,7 +127,9 @@ TEST(LeanVariant, NeverForOtherMaterials) {
   // One bit of each material kind but diffuse is enough to rule lean out.
   for (std::uint32_t bit = 0; bit < gpu::FEATURE_COUNT; ++bit) {
     const std::uint32_t f = 1u << bit;
-    const bool material = f >= gpu::FEATURE_MAT_OREN_NAYAR;  // bits 11.. are material kinds
+    // bits 11..27 are material kinds; 28.. are texture families and the image light, which
+    // the lean build supports
+    const bool material = f >= gpu::FEATURE_MAT_OREN_NAYAR && f < gpu::FEATURE_TEXTURES;
     EXPECT_EQ(vkx::GpuRenderer::lean_suffices(gpu::FEATURE_MAT_DIFFUSE | f), !material) << bit;
   }
 }
