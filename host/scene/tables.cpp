@@ -323,6 +323,18 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
   texture_programs.set_image_tables(&t.mip_levels, &t.texels);  // imagemap pyramids
   t.materials =
       convert_materials(scene, scene.mix_mode, &t.measured, warnings, &texture_programs);
+  // A slot whose texture program is one constant instruction holds that value instead: the
+  // same result (docs/textures-spec.md 2) without texture code (a scene whose textures are all
+  // constants needs no texture pipeline).
+  for (gpu::Material& m : t.materials)
+    for (std::uint32_t slot = 0; slot < gpu::MATERIAL_SLOTS; ++slot) {
+      std::uint32_t& root = m.texture[slot / 4][slot % 4];
+      if (root != INVALID_INDEX && t.textures[root].type == gpu::TEXTURE_CONSTANT &&
+          t.textures[root].first == root) {
+        m.value[slot] = glm::vec4(glm::vec3(t.textures[root].param[0]), 0.0f);
+        root = INVALID_INDEX;
+      }
+    }
   std::uint32_t default_material = INVALID_INDEX;  // diffuse 0.5, appended on first use
   auto material_of = [&](const Shape& s) -> std::uint32_t {
     if (s.material < 0) {
@@ -642,6 +654,9 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
       if (root == INVALID_INDEX) continue;
       for (std::uint32_t i = t.textures[root].first; i <= root; ++i) {
         t.features |= gpu::FEATURE_TEXTURES;
+        const std::uint32_t mapping = t.textures[i].flags & gpu::TEXFLAG_MAPPING_MASK;
+        if (mapping == gpu::MAPPING_SPHERICAL || mapping == gpu::MAPPING_CYLINDRICAL)
+          t.features2 |= gpu::FEATURE2_TEX_MAP_CURVED;
         switch (t.textures[i].type) {
           case gpu::TEXTURE_FBM:
           case gpu::TEXTURE_WRINKLED:

@@ -40,7 +40,7 @@ struct TexCoord2D {
 
 // pbrt-v4 UVMapping / SphericalMapping / CylindricalMapping / PlanarMapping::Map.
 TexCoord2D tex_map_2d(uint ti, TexCtx c) {
-  TexCoord2D r;
+  TexCoord2D r = TexCoord2D(vec2(0.0), 0.0, 0.0, 0.0, 0.0);
   uint mapping = textures[ti].flags & TEXFLAG_MAPPING_MASK;
   if (mapping == MAPPING_UV) {
     vec4 m = textures[ti].map[0];
@@ -67,6 +67,7 @@ TexCoord2D tex_map_2d(uint ti, TexCtx c) {
     r.st = st;
     return r;
   }
+  if ((FEATURES2 & FEATURE2_TEX_MAP_CURVED) == 0u) return r;  // no such mapping in the scene
   precise float x2y2 = pt.x * pt.x + pt.y * pt.y;
   precise vec3 dsdp = vec3(-pt.y, pt.x, 0.0) / (2.0 * PI * x2y2);
   if (mapping == MAPPING_SPHERICAL) {
@@ -280,9 +281,19 @@ vec3 tex_shirley_array(uint ti, TexCtx c) {
 // Value of instruction ti whose children's values are a0, a1, a2 (docs/textures-spec.md 2).
 vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
   uint type = textures[ti].type;
-  switch (type) {
-    case TEXTURE_CONSTANT:
-      return textures[ti].param[0].xyz;
+  if (type == TEXTURE_CONSTANT) return textures[ti].param[0].xyz;
+  // Each family below is compiled only into pipelines whose scene reaches it (FEATURES2): the
+  // whole interpreter is inlined at its call site, and without the code of the families a
+  // scene does not use lavapipe renders textures-image 25-45% and textures-procedural 11%
+  // faster (8 spp, 3 runs each).
+  if ((FEATURES2 & FEATURE2_TEX_CHECKER_AA) != 0u && type == TEXTURE_CHECKERBOARD) {
+    float w = tex_checkerboard(ti, c);
+    vec3 t1 = w != 1.0 ? a0 : vec3(0.0);
+    vec3 t2 = w != 0.0 ? a1 : vec3(0.0);
+    precise vec3 r = (1.0 - w) * t1 + w * t2;
+    return r;
+  }
+  if ((FEATURES2 & FEATURE2_TEX_PROCEDURAL) != 0u) switch (type) {
     case TEXTURE_SCALE: {
       float sc = a1.x;
       precise vec3 r = a0 * sc;
@@ -308,13 +319,6 @@ vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
                        st.x * (1.0 - st.y) * textures[ti].param[2].xyz +
                        (1.0 - st.x) * st.y * textures[ti].param[1].xyz +
                        st.x * st.y * textures[ti].param[3].xyz;
-      return r;
-    }
-    case TEXTURE_CHECKERBOARD: {
-      float w = tex_checkerboard(ti, c);
-      vec3 t1 = w != 1.0 ? a0 : vec3(0.0);
-      vec3 t2 = w != 0.0 ? a1 : vec3(0.0);
-      precise vec3 r = (1.0 - w) * t1 + w * t2;
       return r;
     }
   }

@@ -103,7 +103,8 @@ BASALT_CONST uint FEATURE2_TEX_CHECKER_AA = 1u << 1;   // checkerboard (closed-f
 BASALT_CONST uint FEATURE2_TEX_PROCEDURAL = 1u << 2;   // bilerp, dots, directionmix, mix, scale
 BASALT_CONST uint FEATURE2_NOISE_SPLIT = 1u << 3;      // noise precision mode "split"
 BASALT_CONST uint FEATURE2_TEX_SHIRLEY = 1u << 4;      // Shirley's solid textures (extensions)
-BASALT_CONST uint FEATURE2_COUNT = 5u;
+BASALT_CONST uint FEATURE2_TEX_MAP_CURVED = 1u << 5;   // a spherical or cylindrical 2D mapping
+BASALT_CONST uint FEATURE2_COUNT = 6u;
 
 // ---- primitive references ------------------------------------------------------------
 // A BVH leaf covers prim_refs[a .. a+b). A ref is a triangle index, or a sphere index

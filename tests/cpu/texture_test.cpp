@@ -254,3 +254,36 @@ TEST(TextureErrors, LocatedMessages) {
 
 }  // namespace
 }  // namespace basalt::test
+
+namespace basalt::test {
+namespace {
+
+TEST(TextureFeatures, OnlyWhatTheSceneReaches) {
+  // Checkerboards only: no noise, image, procedural or curved-mapping code.
+  SceneTables t = textured(
+      "Texture \"c\" \"spectrum\" \"checkerboard\" \"rgb tex1\" [ 1 0 0 ]\n"
+      "Texture \"unused\" \"float\" \"fbm\"\n"
+      "MakeNamedMaterial \"never\" \"string type\" \"conductor\" \"texture roughness\" \"unused\"\n"
+      "Material \"diffuse\" \"texture reflectance\" \"c\"\nShape \"sphere\"\n");
+  EXPECT_TRUE(t.features & gpu::FEATURE_TEXTURES);
+  EXPECT_FALSE(t.features & (gpu::FEATURE_TEX_NOISE | gpu::FEATURE_TEX_IMAGE));
+  EXPECT_FALSE(t.features & gpu::FEATURE_MAT_CONDUCTOR) << "a material no shape uses";
+  EXPECT_EQ(t.features2, gpu::FEATURE2_TEX_CHECKER_AA);
+  // Constant textures fold into the slot: no texture code at all, the same value.
+  t = textured("Texture \"k\" \"spectrum\" \"constant\" \"rgb value\" [ 0.2 0.3 0.4 ]\n"
+               "Material \"diffuse\" \"texture reflectance\" \"k\"\nShape \"sphere\"\n");
+  EXPECT_FALSE(t.features & gpu::FEATURE_TEXTURES);
+  EXPECT_EQ(reflectance_root(t), gpu::INVALID_INDEX);
+  EXPECT_EQ(glm::vec3(t.materials[0].value[gpu::SLOT_DIFFUSE_REFLECTANCE]), glm::vec3(0.2f, 0.3f, 0.4f));
+  // A spherical mapping adds its bit; noise adds the split-precision bit by default.
+  t = textured("Texture \"c\" \"spectrum\" \"checkerboard\" \"string mapping\" \"spherical\"\n"
+               "Texture \"f\" \"float\" \"fbm\"\n"
+               "Texture \"m\" \"spectrum\" \"mix\" \"texture tex1\" \"c\" \"texture amount\" \"f\"\n"
+               "Material \"diffuse\" \"texture reflectance\" \"m\"\nShape \"sphere\"\n");
+  EXPECT_TRUE(t.features & gpu::FEATURE_TEX_NOISE);
+  EXPECT_EQ(t.features2, gpu::FEATURE2_TEX_CHECKER_AA | gpu::FEATURE2_TEX_PROCEDURAL |
+                             gpu::FEATURE2_TEX_MAP_CURVED | gpu::FEATURE2_NOISE_SPLIT);
+}
+
+}  // namespace
+}  // namespace basalt::test
