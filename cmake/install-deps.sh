@@ -5,7 +5,7 @@ set -euo pipefail
 pkgs=(
   build-essential cmake pkg-config
   libvulkan-dev vulkan-tools mesa-vulkan-drivers vulkan-validationlayers
-  glslang-tools libglm-dev libopenexr-dev libpng-dev
+  glslang-tools libglm-dev libopenexr-dev libpng-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
 )
 missing=()

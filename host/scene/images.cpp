@@ -3,6 +3,7 @@
 #include "scene/images.h"
 
 #include <png.h>
+#include <stb_image.h>
 
 #include <Imath/half.h>
 #include <ImfChannelList.h>
@@ -72,6 +73,43 @@ float byte_to_linear(std::uint8_t b, const ColorEncoding& enc) {
   }
   return 0.0f;
 }
+
+// TGA, JPEG, BMP, GIF (8-bit, through stb_image) and Radiance HDR (float) as pbrt-v4's
+// Image::Read reads them: 8-bit formats are always sRGB (the texture's `encoding` applies to
+// PNG only), grey stays one channel, alpha is dropped, HDR is linear.
+DecodedImage read_stb(const std::string& path, bool hdr, const SourceLoc& loc) {
+  const std::vector<unsigned char> data = read_file(path, loc);
+  if (data.empty()) fail(loc, path, "empty file");
+  int w = 0, h = 0, n = 0;
+  DecodedImage img;
+  auto keep = [](int channels) { return channels <= 2 ? 1 : 3; };
+  if (hdr) {
+    float* px = stbi_loadf_from_memory(data.data(), int(data.size()), &w, &h, &n, 0);
+    if (!px) fail(loc, path, std::string("corrupt or unsupported image: ") + stbi_failure_reason());
+    img.width = w;
+    img.height = h;
+    img.channels = keep(n);
+    for (std::size_t i = 0; i < std::size_t(w) * std::size_t(h); ++i)
+      for (int c = 0; c < img.channels; ++c) img.texels.push_back(px[i * std::size_t(n) + std::size_t(c)]);
+    stbi_image_free(px);
+    return img;
+  }
+  unsigned char* px = stbi_load_from_memory(data.data(), int(data.size()), &w, &h, &n, 0);
+  if (!px) fail(loc, path, std::string("corrupt or unsupported image: ") + stbi_failure_reason());
+  img.width = w;
+  img.height = h;
+  img.channels = keep(n);
+  img.storage = PixelStorage::U8;
+  img.encoding = ColorEncoding{ImageEncoding::SRGB};
+  float lut[256];
+  for (int i = 0; i < 256; ++i) lut[i] = byte_to_linear(std::uint8_t(i), img.encoding);
+  for (std::size_t i = 0; i < std::size_t(w) * std::size_t(h); ++i)
+    for (int c = 0; c < img.channels; ++c)
+      img.texels.push_back(lut[px[i * std::size_t(n) + std::size_t(c)]]);
+  stbi_image_free(px);
+  return img;
+}
+
 
 // pbrt-v4 ColorEncoding::FromLinear of one value (sRGB: LinearToSRGB8 with the exact curve;
 // linear: truncation of v 255 + 0.5; gamma: pbrt-v4's 1024-entry inverse table).
@@ -470,8 +508,13 @@ DecodedImage read_texture_image(const std::string& path, const ColorEncoding& en
     img = read_exr(path, loc);
   else if (ext == ".pfm")
     img = read_pfm(path, loc);
+  else if (ext == ".hdr")
+    img = read_stb(path, true, loc);
+  else if (ext == ".tga" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp" || ext == ".gif")
+    img = read_stb(path, false, loc);
   else
-    fail(loc, path, "unsupported image format \"" + ext + "\" (basalt reads .png, .exr and .pfm)");
+    fail(loc, path, "unsupported image format \"" + ext +
+                        "\" (basalt reads .png, .exr, .pfm, .hdr, .tga, .jpg, .bmp and .gif)");
   if (img.width <= 0 || img.height <= 0) fail(loc, path, "the image has zero size");
   return img;
 }

@@ -547,9 +547,13 @@ TEST(ImageTexture, BadFilesAreLocatedErrorsNamingTheFile) {
     EXPECT_NE(e.find("zero"), std::string::npos) << e;
   }
   // unsupported extension, no filename, bad parameters
+  write_bytes(d / "x.webp", {1, 2, 3});
+  e = error_of(texture_line("x.webp"));
+  EXPECT_NE(e.find("unsupported image format"), std::string::npos) << e;
+  // a truncated file of a format stb_image reads
   write_bytes(d / "x.tga", {1, 2, 3});
   e = error_of(texture_line("x.tga"));
-  EXPECT_NE(e.find("unsupported image format"), std::string::npos) << e;
+  EXPECT_NE(e.find("x.tga\": corrupt or unsupported image"), std::string::npos) << e;
   EXPECT_EQ(error_of("WorldBegin\nTexture \"t\" \"spectrum\" \"imagemap\"\n"),
             "t.pbrt:2:1: error: imagemap texture \"t\" needs a \"string filename\" parameter");
   write_png(d / "ok.png", 1, 1, PNG_COLOR_TYPE_GRAY, 8, {3});
@@ -560,3 +564,66 @@ TEST(ImageTexture, BadFilesAreLocatedErrorsNamingTheFile) {
             std::string::npos);
   EXPECT_EQ(error_of(texture_line("ok.png")), "");
 }
+
+#include <stb_image_write.h>
+
+namespace basalt {
+namespace {
+
+TEST(ImageTexture, StbFormatsAsPbrtReadsThem) {
+  // TGA (written by hand: uncompressed 24-bit BGR, bottom-up), JPEG and HDR (stb_image_write):
+  // pbrt-v4's Image::Read decodes 8-bit formats as sRGB whatever the texture's encoding, and
+  // Radiance HDR as linear float.
+  const fs::path tga = temp_dir() / "t.tga";
+  {
+    const unsigned char header[18] = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 2, 0, 24, 0};
+    std::ofstream out(tga, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(header), 18);
+    // Bottom-up: first the bottom row (0, 128, 255 in rgb), then the top row (255, 64, 0).
+    const unsigned char px[12] = {255, 128, 0, 255, 128, 0, 0, 64, 255, 0, 64, 255};
+    out.write(reinterpret_cast<const char*>(px), 12);
+  }
+  const DecodedImage t = read_texture_image(tga.string(), {ImageEncoding::Linear, 1.0f}, here());
+  ASSERT_EQ(t.width, 2);
+  ASSERT_EQ(t.height, 2);
+  ASSERT_EQ(t.channels, 3);
+  EXPECT_EQ(t.storage, PixelStorage::U8);
+  auto srgb = [](double b) {
+    const double v = b / 255.0;
+    return float(v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4));
+  };
+  // Row 0 is the top row of the image: (255, 64, 0), sRGB-decoded despite "linear".
+  EXPECT_FLOAT_EQ(t.texels[0], 1.0f);
+  EXPECT_FLOAT_EQ(t.texels[1], srgb(64));
+  EXPECT_FLOAT_EQ(t.texels[2], 0.0f);
+  EXPECT_FLOAT_EQ(t.texels[7], srgb(128));
+
+  const fs::path jpg = temp_dir() / "g.jpg";
+  std::vector<unsigned char> grey(16 * 16, 200);
+  ASSERT_NE(stbi_write_jpg(jpg.string().c_str(), 16, 16, 1, grey.data(), 95), 0);
+  const DecodedImage j = read_texture_image(jpg.string(), ColorEncoding{}, here());
+  ASSERT_EQ(j.channels, 3);  // stb's JPEG writer stores three components, even for grey
+  for (float v : j.texels) EXPECT_NEAR(v, srgb(200), 0.01f);
+
+  const fs::path hdr = temp_dir() / "h.hdr";
+  const float rgb[6] = {0.5f, 2.0f, 8.0f, 0.25f, 1.0f, 16.0f};
+  ASSERT_NE(stbi_write_hdr(hdr.string().c_str(), 2, 1, 3, rgb), 0);
+  const DecodedImage h = read_texture_image(hdr.string(), ColorEncoding{}, here());
+  ASSERT_EQ(h.channels, 3);
+  EXPECT_EQ(h.storage, PixelStorage::Float);
+  for (int i = 0; i < 6; ++i) EXPECT_NEAR(h.texels[i], rgb[i], 0.01f * rgb[i]);  // RGBE: 8-bit mantissas
+
+  // A corrupt file of a supported extension is an error naming it.
+  const fs::path bad = temp_dir() / "bad.jpg";
+  std::ofstream(bad, std::ios::binary) << "not a jpeg at all";
+  try {
+    read_texture_image(bad.string(), ColorEncoding{}, here());
+    ADD_FAILURE() << "no error for a corrupt jpeg";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.jpg"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("corrupt"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace basalt
