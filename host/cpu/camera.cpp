@@ -13,15 +13,7 @@ namespace {
 /// spec section 2 step 1): the bin i with cdf[i] <= u < cdf[i+1] by binary search, then the
 /// linear position inside it, mapped to [-r, r].
 float sample_tabulated(const float* cdf, std::uint32_t n, float r, float u) {
-  std::uint32_t lo = 0, hi = n;
-  while (hi - lo > 1) {
-    const std::uint32_t mid = (lo + hi) / 2;
-    if (cdf[mid] <= u) {
-      lo = mid;
-    } else {
-      hi = mid;
-    }
-  }
+  const std::uint32_t lo = find_interval(cdf, n, u);
   const float width = cdf[lo + 1] - cdf[lo];
   const float du = width > 0.0f ? (u - cdf[lo]) / width : 0.0f;
   return -r + 2.0f * r * (float(lo) + du) / float(n);

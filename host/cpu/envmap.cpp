@@ -141,15 +141,7 @@ Distribution2D distribution(const SceneTables& s, const gpu::Light& l, bool comp
 /// interval width if that is positive, pdf = func[i] / integral (0 if the integral is 0).
 float sample_1d(const float* func, const float* cdf, float integral, std::uint32_t n, float u,
                 float& pdf, std::uint32_t& offset) {
-  std::uint32_t lo = 0, hi = n;
-  while (hi - lo > 1) {
-    const std::uint32_t mid = (lo + hi) / 2;
-    if (cdf[mid] <= u) {
-      lo = mid;
-    } else {
-      hi = mid;
-    }
-  }
+  const std::uint32_t lo = find_interval(cdf, n, u);
   offset = lo;
   float du = u - cdf[lo];
   const float width = cdf[lo + 1] - cdf[lo];

@@ -175,40 +175,43 @@ float shirley_turbulence(const SceneTables& s, glm::vec3 p, int octaves) {
   return sum;
 }
 
-float fbm(const SceneTables& s, glm::vec3 p, glm::vec3 dpdx, glm::vec3 dpdy, float omega,
-          int max_octaves, bool split) {
+namespace {
+
+// pbrt-v4 FBm (turb false) and Turbulence (turb true), one loop: octaves at frequencies 1.99^i
+// with weights omega^i, the partial one faded in; turbulence sums |noise| and adds 0.2 times
+// the weight of every octave the footprint leaves out (docs/textures-spec.md section 8).
+float noise_sum(const SceneTables& s, glm::vec3 p, glm::vec3 dpdx, glm::vec3 dpdy, float omega,
+                int max_octaves, bool split, bool turb) {
   const float n = octave_count(s, dpdx, dpdy, max_octaves);
   const int n_int = int(std::floor(n));
   float sum = 0.0f, lambda = 1.0f, o = 1.0f;
   for (int i = 0; i < n_int; ++i) {
-    sum += o * perlin_noise_scaled(s, lambda, p, split);
+    const float v = perlin_noise_scaled(s, lambda, p, split);
+    sum += o * (turb ? std::fabs(v) : v);
     lambda *= 1.99f;  // pbrt-v4's octave step
     o *= omega;
   }
-  const float partial = n - float(n_int);
-  sum += o * smooth_step(partial, 0.3f, 0.7f) * perlin_noise_scaled(s, lambda, p, split);
-  return sum;
-}
-
-float turbulence(const SceneTables& s, glm::vec3 p, glm::vec3 dpdx, glm::vec3 dpdy, float omega,
-                 int max_octaves, bool split) {
-  const float n = octave_count(s, dpdx, dpdy, max_octaves);
-  const int n_int = int(std::floor(n));
-  float sum = 0.0f, lambda = 1.0f, o = 1.0f;
-  for (int i = 0; i < n_int; ++i) {
-    sum += o * std::fabs(perlin_noise_scaled(s, lambda, p, split));
-    lambda *= 1.99f;
-    o *= omega;
-  }
-  const float partial = n - float(n_int);
-  sum += o * lerp(smooth_step(partial, 0.3f, 0.7f), 0.2f,
-                  std::fabs(perlin_noise_scaled(s, lambda, p, split)));
-  // pbrt-v4 adds 0.2 o for every octave left out, starting with the weight of the partial one.
+  const float fade = smooth_step(n - float(n_int), 0.3f, 0.7f);
+  const float v = perlin_noise_scaled(s, lambda, p, split);
+  if (!turb) return sum + o * fade * v;
+  sum += o * lerp(fade, 0.2f, std::fabs(v));
   for (int i = n_int; i < max_octaves; ++i) {
     sum += o * 0.2f;
     o *= omega;
   }
   return sum;
+}
+
+}  // namespace
+
+float fbm(const SceneTables& s, glm::vec3 p, glm::vec3 dpdx, glm::vec3 dpdy, float omega,
+          int max_octaves, bool split) {
+  return noise_sum(s, p, dpdx, dpdy, omega, max_octaves, split, false);
+}
+
+float turbulence(const SceneTables& s, glm::vec3 p, glm::vec3 dpdx, glm::vec3 dpdy, float omega,
+                 int max_octaves, bool split) {
+  return noise_sum(s, p, dpdx, dpdy, omega, max_octaves, split, true);
 }
 
 }  // namespace basalt::cpu

@@ -2,6 +2,7 @@
 // (docs/path-spec.md sections 2, 4, 6 and 7).
 #pragma once
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 
 #include <glm/glm.hpp>
@@ -12,6 +13,21 @@ inline constexpr float PI = std::numbers::pi_v<float>;
 inline constexpr float INV_PI = std::numbers::inv_pi_v<float>;
 
 /// sqrt clamped at 0 so that rounding below zero gives 0, not NaN (pbrt-v4 SafeSqrt).
+/// Largest i in [0, n - 1] with cdf[i] <= u, by binary search (pbrt-v4 FindInterval as
+/// docs/path-spec.md 2 fixes it; cdf has n + 1 entries).
+inline std::uint32_t find_interval(const float* cdf, std::uint32_t n, float u) {
+  std::uint32_t lo = 0, hi = n;
+  while (hi - lo > 1) {
+    const std::uint32_t mid = (lo + hi) / 2;
+    if (cdf[mid] <= u) {
+      lo = mid;
+    } else {
+      hi = mid;
+    }
+  }
+  return lo;
+}
+
 inline float safe_sqrt(float x) { return std::sqrt(std::fmax(x, 0.0f)); }
 
 /// Largest component of an rgb value.

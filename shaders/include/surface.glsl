@@ -31,31 +31,11 @@ vec3 cross_exact(vec3 a, vec3 b) {
   return c;
 }
 
-// dpdu of triangle tri (docs/materials-spec.md section 1.1, pbrt-v4
-// Triangle::InteractionFromIntersection): from the per-vertex uv of the mesh, or (0,0), (1,0),
-// (1,1) without them; zero when |det| < 1e-9.
-vec3 triangle_dpdu(uint tri) {
-  Triangle T = triangles[tri];
-  Vertex a = vertices[T.v0], b = vertices[T.v1], c = vertices[T.v2];
-  vec2 uv0 = vec2(0.0, 0.0), uv1 = vec2(1.0, 0.0), uv2 = vec2(1.0, 1.0);
-  if ((meshes[T.mesh].flags & SHAPE_FLAG_HAS_UV) != 0u) {
-    uv0 = vec2(a.p_u.w, a.n_v.w);
-    uv1 = vec2(b.p_u.w, b.n_v.w);
-    uv2 = vec2(c.p_u.w, c.n_v.w);
-  }
-  precise vec2 duv02 = uv0 - uv2;
-  precise vec2 duv12 = uv1 - uv2;
-  precise vec3 dp02 = a.p_u.xyz - c.p_u.xyz;
-  precise vec3 dp12 = b.p_u.xyz - c.p_u.xyz;
-  precise float det = duv02.x * duv12.y - duv02.y * duv12.x;
-  if (abs(det) < 1e-9) return vec3(0.0);
-  precise vec3 dpdu = (duv12.y * dp02 - duv02.y * dp12) / det;
-  return dpdu;
-}
-
-// uv and dpdv of triangle tri at barycentrics b (docs/textures-spec.md 1): uv interpolated
-// from the mesh's uv or (0,0), (1,0), (1,1); dpdv zero for a degenerate uv map.
-void triangle_uv(uint tri, vec3 b, out vec2 uv, out vec3 dpdv) {
+// Parameterisation of triangle tri at barycentrics b (docs/materials-spec.md section 1.1,
+// docs/textures-spec.md 1; pbrt-v4 Triangle::InteractionFromIntersection): uv interpolated from
+// the mesh's per-vertex uv or (0,0), (1,0), (1,1) without them, and dpdu, dpdv, both zero when
+// |det| < 1e-9 (a degenerate uv map).
+void triangle_params(uint tri, vec3 b, out vec2 uv, out vec3 dpdu, out vec3 dpdv) {
   Triangle T = triangles[tri];
   Vertex a = vertices[T.v0], bb = vertices[T.v1], c = vertices[T.v2];
   vec2 uv0 = vec2(0.0, 0.0), uv1 = vec2(1.0, 0.0), uv2 = vec2(1.0, 1.0);
@@ -72,10 +52,13 @@ void triangle_uv(uint tri, vec3 b, out vec2 uv, out vec3 dpdv) {
   precise vec3 dp12 = bb.p_u.xyz - c.p_u.xyz;
   precise float det = duv02.x * duv12.y - duv02.y * duv12.x;
   if (abs(det) < 1e-9) {
+    dpdu = vec3(0.0);
     dpdv = vec3(0.0);
     return;
   }
+  precise vec3 du = (duv12.y * dp02 - duv02.y * dp12) / det;
   precise vec3 dv = (duv02.x * dp12 - duv12.x * dp02) / det;
+  dpdu = du;
   dpdv = dv;
 }
 
@@ -219,9 +202,8 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, vec3 rx_o, vec3 rx_d
     Mesh m = meshes[triangles[tri].mesh];
     sp.material = m.material;
     sp.light = m.light_base == INVALID_INDEX ? INVALID_INDEX : m.light_base + (tri - m.tri_base);
-    dpdu = triangle_dpdu(tri);
-    if ((FEATURES & FEATURE_TEXTURES) != 0u)
-      triangle_uv(tri, vec3(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2), uv, dpdv);
+    // uv and dpdv are dead (and folded away) without FEATURE_TEXTURES.
+    triangle_params(tri, vec3(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2), uv, dpdu, dpdv);
   }
   shading_frame(sp.ns, dpdu, sp.t1, sp.t2);
   if ((FEATURES & FEATURE_TEXTURES) != 0u) {

@@ -50,6 +50,27 @@ SceneTables tables_from_string(const std::string& text) {
   return build_tables(load_scene_from_string(text, "test.pbrt", source_path("scenes")));
 }
 
+const char* const kTexturedHead = R"(
+LookAt 0 3 -8  0 0.5 0  0 1 0
+Camera "perspective" "float fov" [ 40 ]
+Film "rgb" "integer xresolution" [ 16 ] "integer yresolution" [ 16 ]
+WorldBegin
+LightSource "infinite" "rgb L" [ 1 1 1 ]
+)";
+
+SceneTables textured_scene(const std::string& body, const std::string& dir) {
+  return build_tables(load_scene_from_string(kTexturedHead + body, "t.pbrt", dir));
+}
+
+std::string textured_scene_error(const std::string& body, const std::string& dir) {
+  try {
+    textured_scene(body, dir);
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  return "";
+}
+
 SceneTables tables_from_file(const std::string& path, int width, int height) {
   Scene scene = load_scene(path);
   if (width > 0) scene.film.xres = width;

@@ -25,6 +25,13 @@ vkx::Context& gpu_context();
 
 /// \brief Parses scene text and builds its tables.
 SceneTables tables_from_string(const std::string& text);
+/// A small scene head for texture tests (camera, 16 x 16 film, a uniform sky, WorldBegin): the
+/// texture tests append their textures, materials and shapes (which start on line 7).
+extern const char* const kTexturedHead;
+/// \brief Tables of kTexturedHead + \p body as file "t.pbrt", relative files resolved in \p dir.
+SceneTables textured_scene(const std::string& body, const std::string& dir = ".");
+/// \brief The SceneError message of textured_scene(body, dir), or "" if it builds.
+std::string textured_scene_error(const std::string& body, const std::string& dir = ".");
 /// \brief Parses a scene file, optionally overriding resolution (0 keeps the scene's).
 SceneTables tables_from_file(const std::string& path, int width = 0, int height = 0);
 /// \brief Replaces the seed of built tables.

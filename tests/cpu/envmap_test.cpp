@@ -94,6 +94,66 @@ glm::vec3 structured(int x, int y, int n, bool spot = true) {
   return c;
 }
 
+/// Furnace comparison of an image-lit scene \p te with a uniformly lit one \p tu of radiance
+/// \p L (16 x 16 pixels, 64 spp, a diffuse sphere of albedo 0.5): escaped camera rays see L
+/// (within \p miss_tol), and the sphere's mean radiance is 0.5 L within 2% and equals the
+/// uniform light's within 3%.
+void check_furnace(const SceneTables& te, const SceneTables& tu, glm::vec3 L, float miss_tol,
+                   const std::string& what) {
+  const std::uint32_t spp = 64;
+  double hit_sum[2] = {0.0, 0.0};
+  int hits = 0;
+  bool misses_close = true;
+  for (std::uint32_t y = 0; y < 16; ++y)
+    for (std::uint32_t x = 0; x < 16; ++x)
+      for (std::uint32_t s = 0; s < spp; ++s) {
+        const bool hit = intersect_closest(te, camera_ray(te, x, y, s)).valid();
+        const glm::vec3 Le = path_radiance(te, x, y, s);
+        const glm::vec3 Lu = path_radiance(tu, x, y, s);
+        ASSERT_TRUE(std::isfinite(Le.x) && std::isfinite(Le.y) && std::isfinite(Le.z)) << what;
+        if (!hit) {
+          misses_close = misses_close && glm::length(Le - L) <= miss_tol && Lu == L;
+        } else {
+          ++hits;
+          hit_sum[0] += Le.x;
+          hit_sum[1] += Lu.x;
+        }
+      }
+  EXPECT_TRUE(misses_close) << what;
+  ASSERT_GT(hits, 1000) << what;
+  EXPECT_NEAR(hit_sum[0] / hits, 0.5 * L.x, 0.02 * L.x) << what;
+  EXPECT_NEAR(hit_sum[0] / hits, hit_sum[1] / hits, 0.03 * L.x) << what;
+}
+
+/// Draws \p samples directions from light \p l (distribution \p comp, generator seed \p seed)
+/// into \p observed (bins by \p bin_of), checking each: unit length, a positive pdf, and env_pdf
+/// and env_le at the sampled direction agree with the sample's (a direction within rounding of
+/// a texel edge may map back to the neighbour texel: fewer than 1 in 1000 may differ).
+void sample_histogram(const SceneTables& t, const gpu::Light& l, bool comp, int samples,
+                      unsigned seed, const std::function<int(glm::vec3)>& bin_of,
+                      std::vector<double>& observed, const std::string& what) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> U(0.0f, 1.0f);
+  int pdf_mismatch = 0, le_mismatch = 0, failed = 0;
+  for (int k = 0; k < samples; ++k) {
+    glm::vec3 wi, le;
+    float pdf;
+    if (!env_sample(t, l, glm::vec2(U(rng), U(rng)), comp, wi, pdf, le)) {
+      ++failed;
+      continue;
+    }
+    ASSERT_NEAR(glm::length(wi), 1.0f, 1e-5f) << what;
+    ASSERT_GT(pdf, 0.0f) << what;
+    observed[bin_of(wi)] += 1.0;
+    const float p2 = env_pdf(t, l, wi, comp);
+    if (std::fabs(p2 - pdf) > 1e-4f * pdf) ++pdf_mismatch;
+    if (glm::length(env_le(t, l, wi) - le) > 1e-4f * glm::length(le)) ++le_mismatch;
+  }
+  EXPECT_EQ(failed, 0) << what;
+  EXPECT_LT(pdf_mismatch, samples / 1000) << what;
+  EXPECT_LT(le_mismatch, samples / 1000) << what;
+}
+
 // Chi-square p-value of observed against expected counts, bins with expected < 5 pooled
 // (as pbrt-v4's chi-square tests do); dof receives the degrees of freedom.
 double chi2_p_value(const std::vector<double>& expected, const std::vector<double>& observed,
@@ -339,26 +399,8 @@ TEST(Envmap, SamplingMatchesPdfChi2) {
           }
       }
       observed.assign(expected.size(), 0.0);
-      std::mt19937 rng(comp ? 11 : 5);
-      std::uniform_real_distribution<float> U(0.0f, 1.0f);
-      int pdf_mismatch = 0, le_mismatch = 0, failed = 0;
-      for (int k = 0; k < samples; ++k) {
-        glm::vec3 wi, le;
-        float pdf;
-        if (!env_sample(t, l, glm::vec2(U(rng), U(rng)), comp, wi, pdf, le)) {
-          ++failed;
-          continue;
-        }
-        ASSERT_NEAR(glm::length(wi), 1.0f, 1e-5f);
-        observed[bin_of(wi)] += 1.0;
-        const float p2 = env_pdf(t, l, wi, comp);
-        if (std::fabs(p2 - pdf) > 1e-4f * pdf) ++pdf_mismatch;
-        if (glm::length(env_le(t, l, wi) - le) > 1e-4f * glm::length(le)) ++le_mismatch;
-      }
-      EXPECT_EQ(failed, 0);
-      // Directions within rounding of a texel edge may map back to the neighbour texel.
-      EXPECT_LT(pdf_mismatch, samples / 1000) << comp;
-      EXPECT_LT(le_mismatch, samples / 1000) << comp;
+      sample_histogram(t, l, comp, samples, comp ? 11 : 5, bin_of, observed,
+                       "spot " + std::to_string(spot) + " compensated " + std::to_string(comp));
       int dof = 0;
       const double p = chi2_p_value(expected, observed, dof);
       EXPECT_GT(dof, 100);
@@ -424,29 +466,7 @@ TEST(Envmap, ConstantMapMatchesUniformLight) {
       scene_text(env_line(path), "Rotate 30 0 1 1", body, 5, 16));
   const SceneTables tu = basalt::test::tables_from_string(
       scene_text("LightSource \"infinite\" \"rgb L\" [ 0.7 0.5 0.3 ]", "", body, 5, 16));
-  const std::uint32_t spp = 64;
-  double hit_sum[2] = {0.0, 0.0};
-  int hits = 0;
-  bool misses_exact = true;
-  for (std::uint32_t y = 0; y < 16; ++y)
-    for (std::uint32_t x = 0; x < 16; ++x)
-      for (std::uint32_t s = 0; s < spp; ++s) {
-        const bool hit = intersect_closest(te, camera_ray(te, x, y, s)).valid();
-        const glm::vec3 Le = path_radiance(te, x, y, s);
-        const glm::vec3 Lu = path_radiance(tu, x, y, s);
-        ASSERT_TRUE(std::isfinite(Le.x) && std::isfinite(Le.y) && std::isfinite(Le.z));
-        if (!hit) {
-          misses_exact = misses_exact && Le == L && Lu == L;
-        } else {
-          ++hits;
-          hit_sum[0] += Le.x;
-          hit_sum[1] += Lu.x;
-        }
-      }
-  EXPECT_TRUE(misses_exact);
-  ASSERT_GT(hits, 1000);
-  EXPECT_NEAR(hit_sum[0] / hits, 0.5 * L.x, 0.02 * L.x);
-  EXPECT_NEAR(hit_sum[0] / hits, hit_sum[1] / hits, 0.03 * L.x);
+  check_furnace(te, tu, L, 0.0f, "equal-area");
 }
 
 // Direct lighting from a single bright texel near the zenith on an upward diffuse plane: the
@@ -874,26 +894,8 @@ TEST(Envmap, LatLongCubeSamplingMatchesPdfChi2) {
             }
       }
       observed.assign(expected.size(), 0.0);
-      std::mt19937 rng(comp ? 31 : 29);
-      std::uniform_real_distribution<float> U(0.0f, 1.0f);
-      int pdf_mismatch = 0, le_mismatch = 0, failed = 0;
-      for (int s = 0; s < samples; ++s) {
-        glm::vec3 wi, le;
-        float pdf;
-        if (!env_sample(t, l, glm::vec2(U(rng), U(rng)), comp, wi, pdf, le)) {
-          ++failed;
-          continue;
-        }
-        ASSERT_NEAR(glm::length(wi), 1.0f, 1e-5f);
-        ASSERT_GT(pdf, 0.0f);
-        observed[bin_of(wi)] += 1.0;
-        const float p2 = env_pdf(t, l, wi, comp);
-        if (std::fabs(p2 - pdf) > 1e-4f * pdf) ++pdf_mismatch;
-        if (glm::length(env_le(t, l, wi) - le) > 1e-4f * glm::length(le)) ++le_mismatch;
-      }
-      EXPECT_EQ(failed, 0);
-      EXPECT_LT(pdf_mismatch, samples / 1000) << mapping << " " << comp;
-      EXPECT_LT(le_mismatch, samples / 1000) << mapping << " " << comp;
+      sample_histogram(t, l, comp, samples, comp ? 31 : 29, bin_of, observed,
+                       std::string(mapping) + " compensated " + std::to_string(comp));
       int dof = 0;
       const double p = chi2_p_value(expected, observed, dof);
       EXPECT_GT(dof, 100) << mapping << " compensated " << comp;
@@ -1021,30 +1023,8 @@ TEST(Envmap, LatLongCubeConstantMapMatchesUniformLight) {
     const std::string path = write_map(d, mapping + ".exr", w, h, [&](int, int) { return L; });
     const SceneTables te = basalt::test::tables_from_string(
         scene_text(env_line(path, mapping_arg(mapping)), "Rotate 30 0 1 1", body, 5, 16));
-    const std::uint32_t spp = 64;
-    double hit_sum[2] = {0.0, 0.0};
-    int hits = 0;
-    bool misses_close = true;
-    for (std::uint32_t y = 0; y < 16; ++y)
-      for (std::uint32_t x = 0; x < 16; ++x)
-        for (std::uint32_t s = 0; s < spp; ++s) {
-          const bool hit = intersect_closest(te, camera_ray(te, x, y, s)).valid();
-          const glm::vec3 Le = path_radiance(te, x, y, s);
-          const glm::vec3 Lu = path_radiance(tu, x, y, s);
-          ASSERT_TRUE(std::isfinite(Le.x) && std::isfinite(Le.y) && std::isfinite(Le.z));
-          if (!hit) {
-            // Lat-long Le is a bilinear blend of equal texels: L up to rounding.
-            misses_close = misses_close && glm::length(Le - L) <= 1e-6f && Lu == L;
-          } else {
-            ++hits;
-            hit_sum[0] += Le.x;
-            hit_sum[1] += Lu.x;
-          }
-        }
-    EXPECT_TRUE(misses_close) << mapping;
-    ASSERT_GT(hits, 1000);
-    EXPECT_NEAR(hit_sum[0] / hits, 0.5 * L.x, 0.02 * L.x) << mapping;
-    EXPECT_NEAR(hit_sum[0] / hits, hit_sum[1] / hits, 0.03 * L.x) << mapping;
+    // Lat-long Le is a bilinear blend of equal texels: L up to rounding.
+    check_furnace(te, tu, L, 1e-6f, mapping);
   }
 }
 

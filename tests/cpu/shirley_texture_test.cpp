@@ -28,14 +28,6 @@ namespace fs = std::filesystem;
 namespace basalt::test {
 namespace {
 
-const char* kHead = R"(
-LookAt 0 3 -8  0 0.5 0  0 1 0
-Camera "perspective" "float fov" [ 40 ]
-Film "rgb" "integer xresolution" [ 16 ] "integer yresolution" [ 16 ]
-WorldBegin
-LightSource "infinite" "rgb L" [ 1 1 1 ]
-)";
-
 constexpr double kPiD = 3.14159265358979323846;
 
 fs::path temp_dir() {
@@ -48,19 +40,12 @@ fs::path temp_dir() {
   return d;
 }
 
-/// Tables of kHead + \p body (relative files resolve in temp_dir()).
-SceneTables textured(const std::string& body) {
-  return build_tables(load_scene_from_string(kHead + body, "t.pbrt", temp_dir().string()));
-}
+/// Tables of kTexturedHead + \p body (relative files resolve in temp_dir()).
+SceneTables textured(const std::string& body) { return textured_scene(body, temp_dir().string()); }
 
-/// The error message of parsing kHead + \p body (empty if it parses and builds).
+/// The error message of kTexturedHead + \p body (empty if it builds).
 std::string error_of(const std::string& body) {
-  try {
-    build_tables(load_scene_from_string(kHead + body, "t.pbrt", temp_dir().string()));
-  } catch (const SceneError& e) {
-    return e.what();
-  }
-  return "";
+  return textured_scene_error(body, temp_dir().string());
 }
 
 /// A scene using float texture "x" (as a coateddiffuse roughness) after the lines \p defs.
@@ -516,7 +501,7 @@ TEST(InterpImage, ParsesLoadsOneLevelAndSharesTheDecodedImage) {
       "Material \"coateddiffuse\" \"texture roughness\" \"x\" \"texture reflectance\" \"y\"\n"
       "Shape \"sphere\"\n"
       "Material \"diffuse\" \"texture reflectance\" \"z\"\nShape \"sphere\"\n";
-  const Scene sc = load_scene_from_string(kHead + defs, "t.pbrt", temp_dir().string());
+  const Scene sc = load_scene_from_string(kTexturedHead + defs, "t.pbrt", temp_dir().string());
   ASSERT_EQ(sc.textures.size(), 3u);
   EXPECT_EQ(sc.images.size(), 1u);  // one decoded image for the three textures
   EXPECT_EQ(sc.textures[0].image, sc.textures[2].image);

@@ -15,16 +15,8 @@
 namespace basalt::test {
 namespace {
 
-const char* kHead = R"(
-LookAt 0 3 -8  0 0.5 0  0 1 0
-Camera "perspective" "float fov" [ 40 ]
-Film "rgb" "integer xresolution" [ 16 ] "integer yresolution" [ 16 ]
-WorldBegin
-LightSource "infinite" "rgb L" [ 1 1 1 ]
-)";
-
-/// Tables of kHead + \p body.
-SceneTables textured(const std::string& body) { return tables_from_string(kHead + body); }
+/// Tables of kTexturedHead + \p body.
+SceneTables textured(const std::string& body) { return textured_scene(body); }
 
 /// Root instruction of the reflectance slot of material \p m.
 std::uint32_t reflectance_root(const SceneTables& t, std::uint32_t m = 0) {
@@ -32,15 +24,8 @@ std::uint32_t reflectance_root(const SceneTables& t, std::uint32_t m = 0) {
                                [gpu::SLOT_DIFFUSE_REFLECTANCE % 4];
 }
 
-/// The error message of parsing kHead + \p body (empty if it parses).
-std::string error_of(const std::string& body) {
-  try {
-    build_tables(load_scene_from_string(kHead + body, "t.pbrt", "."));
-  } catch (const SceneError& e) {
-    return e.what();
-  }
-  return "";
-}
+/// The error message of kTexturedHead + \p body (empty if it builds).
+std::string error_of(const std::string& body) { return textured_scene_error(body); }
 
 TEST(Noise, PropertiesCpu) {
   const SceneTables t = textured("Shape \"sphere\"\n");
