@@ -2,8 +2,9 @@
 // ImageInfiniteLight (lights.h) with its PiecewiseConstant2D distributions (util/sampling.h)
 // read from tex_data, equal-area octahedral mapping (util/math.cpp) and nearest lookups with
 // octahedral wrap (util/image.h); the lat-long (pbrt-v3 InfiniteAreaLight) and cube (Shirley
-// 11.6) mappings of 6.8, selected by Light.data.w. fp32, no fma (-ffp-contract=off), sums
-// left to right.
+// 11.6) mappings of 6.8 and the portal of 6.9 (pbrt-v4 PortalImageInfiniteLight), selected by
+// Light.data.w. fp32, no fma (-ffp-contract=off, which two_diff's exactness needs), sums left
+// to right.
 #include "cpu/envmap.h"
 
 #include <algorithm>
@@ -23,8 +24,12 @@ constexpr float INV_2PI = 0.159154937f;  // textures-spec 6.8 constants
 constexpr float INV_PI_F = 0.318309886f;
 constexpr float TWO_PI2 = 19.7392088f;   // 2 pi^2
 
-// Light.data.w (textures-spec 6.8).
-constexpr std::uint32_t MAP_EQUAL_AREA = 0, MAP_LATLONG = 1, MAP_CUBE = 2;
+// Light.data.w (textures-spec 6.8, 6.9).
+constexpr std::uint32_t MAP_EQUAL_AREA = 0, MAP_LATLONG = 1, MAP_CUBE = 2, MAP_PORTAL = 3;
+constexpr float HALF_PI = PI / 2.0f;  // textures-spec 6.9 constants
+// pi^2 rounded to float, the spec's (and the GLSL's) literal; note that the float product
+// PI * PI would be 9.86960506f, one ulp above.
+constexpr float PI2 = 9.86960411f;
 
 /// Rotation into the light's frame: columns of light_from_world summed left to right
 /// (spec section 6, "light frame"; pbrt-v4 renderFromLight.ApplyInverse).
@@ -150,6 +155,214 @@ float sample_1d(const float* func, const float* cdf, float integral, std::uint32
   return (float(lo) + du) / float(n);
 }
 
+// ---- Portals (textures-spec 6.9; pbrt-v4 PortalImageInfiniteLight, lights.h / lights.cpp,
+// WindowedPiecewiseConstant2D and SummedAreaTable, util/sampling.h). The portal frame is
+// light_from_world (rows x, y, z), p0 is Light.pos, p2 Light.dir.
+
+/// A point of the portal image (u, v) with its Jacobian duv_dw, or none.
+struct PortalUv {
+  bool valid = false;
+  glm::vec2 uv = glm::vec2(0.0f);
+  float duv_dw = 0.0f;
+};
+
+/// A box of the portal image (min, max componentwise), or none.
+struct PortalBox {
+  bool valid = false;
+  glm::vec2 lo = glm::vec2(0.0f), hi = glm::vec2(0.0f);
+};
+
+/// World direction \p w (unit) to the portal image (pbrt-v4 PortalImageInfiniteLight::
+/// ImageFromRender): none behind the portal plane (wp.z <= 0, or NaN).
+PortalUv portal_world_to_image(const gpu::Light& l, glm::vec3 w) {
+  PortalUv r;
+  const glm::vec3 wp = to_light(l, w);  // dots with the frame's rows, not normalised
+  if (!(wp.z > 0.0f)) return r;
+  r.valid = true;
+  r.duv_dw = ((PI2 * (1.0f - wp.x * wp.x)) * (1.0f - wp.y * wp.y)) / wp.z;
+  const float alpha = std::atan2(wp.x, wp.z), beta = std::atan2(wp.y, wp.z);
+  r.uv = glm::vec2(std::clamp((alpha + HALF_PI) / PI, 0.0f, 1.0f),
+                   std::clamp((beta + HALF_PI) / PI, 0.0f, 1.0f));
+  return r;
+}
+
+/// Portal image point \p uv to the world direction and its Jacobian \p duv_dw (pbrt-v4
+/// PortalImageInfiniteLight::RenderFromImage).
+glm::vec3 portal_image_to_world(const gpu::Light& l, glm::vec2 uv, float& duv_dw) {
+  const float alpha = -HALF_PI + uv.x * PI, beta = -HALF_PI + uv.y * PI;
+  const glm::vec3 v = safe_normalize(glm::vec3(std::tan(alpha), std::tan(beta), 1.0f));
+  duv_dw = ((PI2 * (1.0f - v.x * v.x)) * (1.0f - v.y * v.y)) / v.z;
+  return to_world(l, v);
+}
+
+/// The box of the portal image visible from \p p through the window (pbrt-v4
+/// PortalImageInfiniteLight::ImageBounds: the images of the corners p0 and p2), or none.
+PortalBox portal_bounds(const gpu::Light& l, glm::vec3 p) {
+  PortalBox b;
+  const PortalUv a = portal_world_to_image(l, safe_normalize(glm::vec3(l.pos) - p));
+  const PortalUv c = portal_world_to_image(l, safe_normalize(glm::vec3(l.dir) - p));
+  if (!a.valid || !c.valid) return b;
+  b.valid = true;
+  b.lo = glm::vec2(std::fmin(a.uv.x, c.uv.x), std::fmin(a.uv.y, c.uv.y));
+  b.hi = glm::vec2(std::fmax(a.uv.x, c.uv.x), std::fmax(a.uv.y, c.uv.y));
+  return b;
+}
+
+/// Radiance of the rectified image at \p uv (pbrt-v4 PortalImageInfiniteLight::ImageLookup:
+/// LookupNearestChannel with clamp), clamped at 0 and scaled.
+glm::vec3 portal_lookup(const SceneTables& s, const gpu::Light& l, glm::vec2 uv) {
+  const gpu::MipLevel* m = env_level(s, l);
+  if (!m || m->channels < 3 || !(uv.x >= 0.0f && uv.x <= 1.0f && uv.y >= 0.0f && uv.y <= 1.0f))
+    return glm::vec3(0.0f);
+  const int w = int(m->width), h = int(m->height);
+  const int x = std::clamp(int(uv.x * float(w)), 0, w - 1);
+  const int y = std::clamp(int(uv.y * float(h)), 0, h - 1);
+  const float* t = &s.texels[m->offset + m->channels * (std::size_t(y) * m->width + x)];
+  return glm::vec3(l.L) * glm::max(glm::vec3(t[0], t[1], t[2]), glm::vec3(0.0f));
+}
+
+/// The windowed distribution in tex_data (textures-spec 6.9 layout: nx, ny, func, sat), or
+/// !valid().
+struct PortalDistribution {
+  const float* base = nullptr;
+  int nx = 0, ny = 0;
+  bool valid() const { return base != nullptr; }
+  const float* func() const { return base + 4; }
+  const float* sat() const { return base + 4 + std::size_t(nx) * ny; }
+};
+
+PortalDistribution portal_distribution(const SceneTables& s, const gpu::Light& l) {
+  PortalDistribution d;
+  const std::size_t o = l.data.y;
+  if (o + 4 > s.tex_data.size()) return d;
+  const float fx = s.tex_data[o], fy = s.tex_data[o + 1];
+  if (!(fx >= 1.0f && fy >= 1.0f)) return d;
+  d.nx = int(fx);
+  d.ny = int(fy);
+  if (o + 4 + 2 * std::size_t(d.nx) * d.ny > s.tex_data.size()) return d;
+  d.base = &s.tex_data[o];
+  return d;
+}
+
+/// func at the cell of \p uv (pbrt-v4 WindowedPiecewiseConstant2D::Eval).
+float portal_eval(const PortalDistribution& d, glm::vec2 uv) {
+  const int x = std::clamp(int(uv.x * float(d.nx)), 0, d.nx - 1);
+  const int y = std::clamp(int(uv.y * float(d.ny)), 0, d.ny - 1);
+  return d.func()[std::size_t(y) * d.nx + x];
+}
+
+/// Bilinear summed-area value at (x, y) in [0, 1]^2 (pbrt-v4 SummedAreaTable::Lookup and
+/// LookupInt: 0 on the lower boundaries).
+float portal_sat_lookup(const PortalDistribution& d, float x, float y) {
+  x = x * float(d.nx);
+  y = y * float(d.ny);
+  const int x0 = std::max(int(x), 0), y0 = std::max(int(y), 0);  // x, y >= 0 for a valid box
+  const float dx = x - float(x0), dy = y - float(y0);
+  auto v = [&](int i, int j) {
+    if (i == 0 || j == 0) return 0.0f;
+    return d.sat()[std::size_t(std::min(j - 1, d.ny - 1)) * d.nx + std::min(i - 1, d.nx - 1)];
+  };
+  return (((1.0f - dx) * (1.0f - dy)) * v(x0, y0) + ((1.0f - dx) * dy) * v(x0, y0 + 1)) +
+         ((dx * (1.0f - dy)) * v(x0 + 1, y0)) + ((dx * dy) * v(x0 + 1, y0 + 1));
+}
+
+/// a - b as an unevaluated float pair (hi, lo) with hi + lo == a - b exactly (Knuth's TwoSum
+/// of a and -b; exact without fma contraction).
+void two_diff(float a, float b, float& hi, float& lo) {
+  hi = a - b;
+  const float bb = hi - a;
+  lo = (a - (hi - bb)) - (b + bb);
+}
+
+/// Integral of func over the box [lo, hi] of [0, 1]^2 (pbrt-v4 SummedAreaTable::Integral,
+/// which forms the differences in double; here exactly by two_diff, textures-spec 6.9).
+float portal_integral(const PortalDistribution& d, glm::vec2 lo, glm::vec2 hi) {
+  const float a = portal_sat_lookup(d, hi.x, hi.y), b = portal_sat_lookup(d, lo.x, hi.y);
+  const float c = portal_sat_lookup(d, lo.x, lo.y), e = portal_sat_lookup(d, hi.x, lo.y);
+  float h1, l1, h2, l2;
+  two_diff(a, b, h1, l1);
+  two_diff(c, e, h2, l2);
+  const float sum = (h1 + h2) + (l1 + l2);
+  return std::fmax(sum / float(d.nx * d.ny), 0.0f);
+}
+
+/// Inverts the monotone cdf \p P on [lo, hi] at \p u (pbrt-v4 WindowedPiecewiseConstant2D::
+/// SampleBisection, with textures-spec 6.9's 64-step cap and t = 0.5 on a flat interval).
+template <typename F>
+float portal_bisect(const F& P, float u, float lo, float hi, int n) {
+  const float fn = float(n);
+  for (int step = 0; step < 64 && std::ceil(fn * hi) - std::floor(fn * lo) > 1.0f; ++step) {
+    const float mid = (lo + hi) / 2.0f;
+    if (P(mid) > u)
+      hi = mid;
+    else
+      lo = mid;
+  }
+  const float pl = P(lo), ph = P(hi);
+  const float t = ph - pl > 0.0f ? (u - pl) / (ph - pl) : 0.5f;
+  return std::clamp((1.0f - t) * lo + t * hi, lo, hi);
+}
+
+/// Portal Le along a ray from \p o in direction \p w (pbrt-v4 PortalImageInfiniteLight::Le).
+glm::vec3 portal_le(const SceneTables& s, const gpu::Light& l, glm::vec3 w, glm::vec3 o) {
+  const PortalUv q = portal_world_to_image(l, safe_normalize(w));
+  if (!q.valid) return glm::vec3(0.0f);
+  const PortalBox b = portal_bounds(l, o);
+  if (!b.valid || !(q.uv.x >= b.lo.x && q.uv.x <= b.hi.x && q.uv.y >= b.lo.y && q.uv.y <= b.hi.y))
+    return glm::vec3(0.0f);
+  return portal_lookup(s, l, q.uv);
+}
+
+/// Portal solid-angle pdf of \p w (unit) from \p p (pbrt-v4 PortalImageInfiniteLight::PDF_Li,
+/// WindowedPiecewiseConstant2D::PDF; uv need not lie in the window, as pbrt-v4).
+float portal_pdf(const SceneTables& s, const gpu::Light& l, glm::vec3 w, glm::vec3 p) {
+  const PortalDistribution d = portal_distribution(s, l);
+  if (!d.valid()) return 0.0f;
+  const PortalUv q = portal_world_to_image(l, w);
+  if (!q.valid || q.duv_dw == 0.0f) return 0.0f;
+  const PortalBox b = portal_bounds(l, p);
+  if (!b.valid) return 0.0f;
+  const float integral = portal_integral(d, b.lo, b.hi);
+  if (!(integral > 0.0f)) return 0.0f;
+  return (portal_eval(d, q.uv) / integral) / q.duv_dw;
+}
+
+/// Portal sample from \p p (pbrt-v4 PortalImageInfiniteLight::SampleLi with
+/// WindowedPiecewiseConstant2D::Sample); outputs untouched when there is none.
+bool portal_sample(const SceneTables& s, const gpu::Light& l, glm::vec2 u, glm::vec3 p,
+                   glm::vec3& wi, float& pdf, glm::vec3& le) {
+  const PortalDistribution d = portal_distribution(s, l);
+  if (!d.valid()) return false;
+  const PortalBox b = portal_bounds(l, p);
+  if (!b.valid) return false;
+  const float integral = portal_integral(d, b.lo, b.hi);
+  if (!(integral > 0.0f)) return false;
+  // Column: the marginal cdf over the window's columns.
+  const float x = portal_bisect(
+      [&](float t) { return portal_integral(d, b.lo, glm::vec2(t, b.hi.y)) / integral; }, u.x,
+      b.lo.x, b.hi.x, d.nx);
+  // Row: the conditional cdf of the window's part of x's column.
+  const float fnx = float(d.nx);
+  glm::vec2 c_lo(std::floor(x * fnx) / fnx, b.lo.y), c_hi(std::ceil(x * fnx) / fnx, b.hi.y);
+  if (c_lo.x == c_hi.x) c_hi.x = c_hi.x + 1.0f / fnx;
+  const float c_integral = portal_integral(d, c_lo, c_hi);
+  if (!(c_integral > 0.0f)) return false;
+  const float y = portal_bisect(
+      [&](float t) { return portal_integral(d, c_lo, glm::vec2(c_hi.x, t)) / c_integral; }, u.y,
+      b.lo.y, b.hi.y, d.ny);
+  const glm::vec2 uv(x, y);
+  const float map_pdf = portal_eval(d, uv) / integral;
+  float duv_dw = 0.0f;
+  const glm::vec3 w = portal_image_to_world(l, uv, duv_dw);
+  if (duv_dw == 0.0f) return false;
+  const float pd = map_pdf / duv_dw;
+  if (!(pd > 0.0f)) return false;
+  wi = w;
+  pdf = pd;
+  le = portal_lookup(s, l, uv);
+  return true;
+}
+
 }  // namespace
 
 // pbrt-v4 EqualAreaSquareToSphere (util/math.cpp; Clarberg's equal-area octahedral map).
@@ -260,8 +473,10 @@ glm::vec3 cube_face_uv_to_dir(int face, float fu, float fv) {
   return safe_normalize(d);
 }
 
-// pbrt-v4 ImageInfiniteLight::Le; lat-long and cube maps as textures-spec 6.8.
-glm::vec3 env_le(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world) {
+// pbrt-v4 ImageInfiniteLight::Le; lat-long and cube maps as textures-spec 6.8, portals as
+// 6.9 (PortalImageInfiniteLight::Le, the only mapping that reads o).
+glm::vec3 env_le(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world, glm::vec3 o) {
+  if (l.data.w == MAP_PORTAL) return portal_le(s, l, w_world, o);
   const glm::vec3 wl = safe_normalize(to_light(l, w_world));
   if (l.data.w == MAP_LATLONG) return latlong_le(s, l, latlong_dir_to_uv(wl));
   if (l.data.w == MAP_CUBE) {
@@ -274,8 +489,11 @@ glm::vec3 env_le(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world) {
   return image_le(s, l, equal_area_sphere_to_square(wl));
 }
 
-// pbrt-v4 ImageInfiniteLight::PDF_Li with PiecewiseConstant2D::PDF.
-float env_pdf(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world, bool compensated) {
+// pbrt-v4 ImageInfiniteLight::PDF_Li with PiecewiseConstant2D::PDF (a portal: 6.9, one
+// distribution, compensated ignored).
+float env_pdf(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world, bool compensated,
+              glm::vec3 p) {
+  if (l.data.w == MAP_PORTAL) return portal_pdf(s, l, w_world, p);
   const Distribution2D d = distribution(s, l, compensated);
   if (!d.valid()) return 0.0f;
   const glm::vec3 wl = safe_normalize(to_light(l, w_world));
@@ -313,12 +531,13 @@ float env_pdf(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world, bool
   return map_pdf / FOUR_PI;
 }
 
-// pbrt-v4 ImageInfiniteLight::SampleLi with PiecewiseConstant2D::Sample.
+// pbrt-v4 ImageInfiniteLight::SampleLi with PiecewiseConstant2D::Sample (a portal: 6.9).
 bool env_sample(const SceneTables& s, const gpu::Light& l, glm::vec2 u, bool compensated,
-                glm::vec3& wi, float& pdf, glm::vec3& le) {
+                glm::vec3& wi, float& pdf, glm::vec3& le, glm::vec3 p) {
   wi = glm::vec3(0.0f);
   pdf = 0.0f;
   le = glm::vec3(0.0f);
+  if (l.data.w == MAP_PORTAL) return portal_sample(s, l, u, p, wi, pdf, le);
   const Distribution2D d = distribution(s, l, compensated);
   if (!d.valid()) return false;
   float pdf_v = 0.0f, pdf_u = 0.0f;

@@ -36,18 +36,25 @@ glm::vec2 cube_dir_to_uv(glm::vec3 wl);
 glm::vec3 cube_face_uv_to_dir(int face, float fu, float fv);
 
 /// \brief Radiance of image infinite light \p l arriving from world direction \p w_world (unit,
-///        pointing away from the scene): pbrt-v4 ImageInfiniteLight::Le.
-glm::vec3 env_le(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world);
+///        pointing away from the scene) along a ray from \p o: pbrt-v4 ImageInfiniteLight::Le
+///        (PortalImageInfiniteLight::Le for a portal, textures-spec 6.9, the only mapping that
+///        reads \p o).
+glm::vec3 env_le(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world,
+                 glm::vec3 o = glm::vec3(0.0f));
 
-/// \brief Solid-angle pdf with which env_sample produces \p w_world: pbrt-v4
-///        ImageInfiniteLight::PDF_Li; \p compensated selects the MIS-compensated distribution
-///        (allowIncompletePDF = true, what the path tracer uses).
-float env_pdf(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world, bool compensated);
+/// \brief Solid-angle pdf with which env_sample from reference point \p p produces
+///        \p w_world: pbrt-v4 ImageInfiniteLight::PDF_Li; \p compensated selects the
+///        MIS-compensated distribution (allowIncompletePDF = true, what the path tracer uses;
+///        a portal, textures-spec 6.9, has one distribution and is the only mapping that reads
+///        \p p).
+float env_pdf(const SceneTables& s, const gpu::Light& l, glm::vec3 w_world, bool compensated,
+              glm::vec3 p = glm::vec3(0.0f));
 
-/// \brief pbrt-v4 ImageInfiniteLight::SampleLi: direction \p wi (world), solid-angle \p pdf and
-///        radiance \p le for u = (u0, u1) (u0 picks the column, u1 the row). Returns false (and
-///        leaves the outputs 0) when the map pdf is 0.
+/// \brief pbrt-v4 ImageInfiniteLight::SampleLi from reference point \p p (read by portals
+///        only, textures-spec 6.9): direction \p wi (world), solid-angle \p pdf and radiance
+///        \p le for u = (u0, u1) (u0 picks the column, u1 the row). Returns false (and leaves
+///        the outputs 0) when there is no sample.
 bool env_sample(const SceneTables& s, const gpu::Light& l, glm::vec2 u, bool compensated,
-                glm::vec3& wi, float& pdf, glm::vec3& le);
+                glm::vec3& wi, float& pdf, glm::vec3& le, glm::vec3 p = glm::vec3(0.0f));
 
 }  // namespace basalt::cpu

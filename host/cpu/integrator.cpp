@@ -59,6 +59,11 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
   float pdf_prev = 0.0f, eta_scale = 1.0f;
   std::uint32_t depth = 0, crossings = 0;
   std::uint64_t nrays = 0;
+  // The ray's differentials (docs/textures-spec.md 3.1): the camera ray's, carried through
+  // interfaces and perfectly specular bounces.
+  RayDifferential diff{};
+  bool has_diff = camera_diff != nullptr;
+  if (has_diff) diff = *camera_diff;
   for (;;) {
     const Hit hit = intersect_closest(scene, ray);
     ++nrays;
@@ -69,17 +74,16 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
         const std::uint32_t li = g.infinite_lights[int(i)];
         if (li >= scene.lights.size()) continue;
         const gpu::Light& light = scene.lights[li];
-        const glm::vec3 Le = infinite_Le(scene, light, ray.d);
+        const glm::vec3 Le = infinite_Le(scene, light, ray.o, ray.d);
         const float w = (depth == 0 || specular)
                             ? 1.0f
-                            : power_heuristic(pdf_prev, infinite_light_pdf(scene, light, ray.d));
+                            : power_heuristic(pdf_prev, infinite_light_pdf(scene, light, p_prev, ray.d));
         L += beta * w * Le;
       }
       break;
     }
-    // The camera ray's differentials serve its first hit (and through interfaces); later
-    // hits approximate the footprint (docs/textures-spec.md section 3).
-    const SurfacePoint sp = surface_point(scene, ray, hit, depth == 0 ? camera_diff : nullptr);
+    // The footprint from the ray's differentials, else approximated (textures-spec 3).
+    const SurfacePoint sp = surface_point(scene, ray, hit, has_diff ? &diff : nullptr);
     // Emission of an area light, MIS-weighted against light sampling from the previous vertex.
     if (sp.light < scene.lights.size()) {
       const gpu::Light& light = scene.lights[sp.light];
@@ -103,6 +107,10 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
       ++crossings;
       specular = true;
       ray = spawn_ray(sp.g.p, sp.g.ng, sp.g.m, ray.d);
+      if (has_diff) {  // pbrt-v4 SkipIntersection: the differential origins move to the hit
+        diff.rx_o = diff.rx_o + hit.t * diff.rx_d;
+        diff.ry_o = diff.ry_o + hit.t * diff.ry_d;
+      }
       continue;
     }
     if (depth == max_depth) break;
@@ -131,7 +139,19 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
     p_prev = sp.g.p;
     ng_prev = sp.g.ng;
     m_prev = sp.g.m;
+    // Differentials survive exactly-specular reflection and transmission only (3.1).
+    const std::uint32_t kind = bs.flags & (gpu::BSDF_SPECULAR | gpu::BSDF_REFLECTION |
+                                           gpu::BSDF_TRANSMISSION | gpu::BSDF_DIFFUSE |
+                                           gpu::BSDF_GLOSSY);
+    const bool spec_r = kind == (gpu::BSDF_SPECULAR | gpu::BSDF_REFLECTION);
+    const bool spec_t = kind == (gpu::BSDF_SPECULAR | gpu::BSDF_TRANSMISSION);
+    const glm::vec3 d_in = ray.d;
     ray = spawn_ray(sp.g.p, sp.g.ng, sp.g.m, wi);
+    if (has_diff && (spec_r || spec_t))
+      has_diff = specular_differentials(sp.tex, ray.o, sp.g.ns, sp.g.dndu, sp.g.dndv, -d_in, wi,
+                                        spec_t, bs.eta, diff, diff);
+    else
+      has_diff = false;
     // Russian roulette on beta etaScale (pbrt-v4 13.1.3), from the third vertex on.
     const float mb = max_component(beta * eta_scale);
     if (mb < 1.0f && depth > 1) {
@@ -149,7 +169,8 @@ glm::vec3 path_radiance(const SceneTables& scene, std::uint32_t px, std::uint32_
   const PathRng r{px, py, s, scene.globals.image.w};
   if (scene.features & gpu::FEATURE_TEXTURES) {
     const CameraRay c = camera_ray_differential(scene, px, py, s);
-    const RayDifferential diff{c.rx_o, c.rx_d, c.ry_o, c.ry_d};
+    RayDifferential diff{c.rx_o, c.rx_d, c.ry_o, c.ry_d};
+    scale_differentials(diff, c.o, c.d, scene.globals.min_dir_dx.w);
     return trace_path(scene, Ray{c.o, c.d, FLT_MAX}, r, rays, &diff);
   }
   return trace_path(scene, camera_ray(scene, px, py, s), r, rays);

@@ -186,7 +186,7 @@ LightSample sample_light(const SceneTables& scene, const gpu::Light& light, glm:
       // pbrt-v4 ImageInfiniteLight::SampleLi with allowIncompletePDF = true, as
       // PathIntegrator::SampleLd asks (docs/textures-spec.md section 6): u.x picks the column,
       // u.y the row of the MIS-compensated distribution.
-      env_sample(scene, light, u, true, ls.wi, ls.pdf, ls.Li);
+      env_sample(scene, light, u, true, ls.wi, ls.pdf, ls.Li, p);
       ls.at_infinity = true;
       return ls;
     case gpu::LIGHT_AREA_TRIANGLE:
@@ -226,14 +226,17 @@ float area_light_pdf(const SceneTables& scene, const gpu::Light& light, glm::vec
   }
 }
 
-glm::vec3 infinite_Le(const SceneTables& scene, const gpu::Light& light, glm::vec3 w) {
-  if (light.type == gpu::LIGHT_INFINITE_IMAGE) return env_le(scene, light, w);
+glm::vec3 infinite_Le(const SceneTables& scene, const gpu::Light& light, glm::vec3 o,
+                      glm::vec3 w) {
+  if (light.type == gpu::LIGHT_INFINITE_IMAGE) return env_le(scene, light, w, o);
   return glm::vec3(light.L);  // LIGHT_INFINITE_UNIFORM
 }
 
-float infinite_light_pdf(const SceneTables& scene, const gpu::Light& light, glm::vec3 w) {
-  // pbrt-v4 PathIntegrator::Li: lightSampler.PMF * light.PDF_Li(ctx, w, true).
-  if (light.type == gpu::LIGHT_INFINITE_IMAGE) return light.pmf * env_pdf(scene, light, w, true);
+float infinite_light_pdf(const SceneTables& scene, const gpu::Light& light, glm::vec3 p,
+                         glm::vec3 w) {
+  // pbrt-v4 PathIntegrator::Li: lightSampler.PMF * light.PDF_Li(prevIntrCtx, w, true).
+  if (light.type == gpu::LIGHT_INFINITE_IMAGE)
+    return light.pmf * env_pdf(scene, light, w, true, p);
   return light.pmf / (4.0f * PI);  // uniform sphere (spec section 7)
 }
 

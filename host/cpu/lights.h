@@ -46,14 +46,16 @@ float area_light_pdf(const SceneTables& scene, const gpu::Light& light, glm::vec
 glm::vec3 area_Le(const gpu::Light& light, glm::vec3 nl, glm::vec3 w);
 
 /// \brief Radiance an escaped ray of unit direction w receives from infinite light \p light
-///        (uniform: L; image: env_le). pbrt-v4 Light::Le.
-glm::vec3 infinite_Le(const SceneTables& scene, const gpu::Light& light, glm::vec3 w);
+///        from origin o (uniform: L; image: env_le, whose portals read o). pbrt-v4 Light::Le.
+glm::vec3 infinite_Le(const SceneTables& scene, const gpu::Light& light, glm::vec3 o,
+                      glm::vec3 w);
 
 /// \brief pmf times solid-angle pdf with which NEE would have produced direction w from
 ///        infinite light \p light (the light-sampling density in the MIS weight of an escaped
 ///        ray, spec section 7): pmf / (4 pi) for a uniform light, pmf * env_pdf(compensated)
-///        for an image light.
-float infinite_light_pdf(const SceneTables& scene, const gpu::Light& light, glm::vec3 w);
+///        for an image light (from the previous vertex p, which portals read).
+float infinite_light_pdf(const SceneTables& scene, const gpu::Light& light, glm::vec3 p,
+                         glm::vec3 w);
 
 /// \brief Shadow ray from shading point p (geometric normal ng, magnitude bound m) to the
 ///        light sample (spec section 5): an area light's target is offset off the light with

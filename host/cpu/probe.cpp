@@ -5,6 +5,7 @@
 #include <cfloat>
 
 #include "cpu/bsdf.h"
+#include "cpu/bxdfs.h"
 #include "cpu/camera.h"
 #include "cpu/envmap.h"
 #include "cpu/intersect.h"
@@ -123,12 +124,14 @@ std::vector<gpu::ProbeOut> probe(const SceneTables& scene, const std::vector<gpu
         // compensated pdf, and a sample of the plain distribution with u = extra.xy.
         if (q.key.y >= scene.lights.size()) break;
         const gpu::Light& l = scene.lights[q.key.y];
-        const glm::vec3 d(q.d);
-        o.f0 = glm::vec4(env_le(scene, l, d), env_pdf(scene, l, d, false));
-        o.f3.x = env_pdf(scene, l, d, true);
+        // The reference point (ray origin of Le, point of the pdf and the sample) is
+        // (d.w, extra.z, extra.w); only portals read it.
+        const glm::vec3 d(q.d), ref(q.d.w, q.extra.z, q.extra.w);
+        o.f0 = glm::vec4(env_le(scene, l, d, ref), env_pdf(scene, l, d, false, ref));
+        o.f3.x = env_pdf(scene, l, d, true, ref);
         glm::vec3 wi(0.0f), le(0.0f);
         float pdf = 0.0f;
-        if (env_sample(scene, l, glm::vec2(q.extra), false, wi, pdf, le)) {
+        if (env_sample(scene, l, glm::vec2(q.extra), false, wi, pdf, le, ref)) {
           o.f1 = glm::vec4(wi, pdf);
           o.f2 = glm::vec4(le, 0.0f);
         }
@@ -136,14 +139,41 @@ std::vector<gpu::ProbeOut> probe(const SceneTables& scene, const std::vector<gpu
       }
       case gpu::PROBE_DIFFERENTIALS: {
         // Texture context at the first hit of the camera ray of pixel (key.z, key.w), sample
-        // bits(extra.x): key.y = 0 with the camera ray's differentials, 1 approximated.
+        // bits(extra.x): key.y = 0 with the camera ray's differentials, 1 approximated, 2 and 3
+        // after a perfectly specular reflection or refraction (layout.h PROBE_DIFFERENTIALS).
         const CameraRay c = camera_ray_differential(scene, q.key.z, q.key.w,
                                                     std::bit_cast<std::uint32_t>(q.extra.x));
         const Ray cam{c.o, c.d, FLT_MAX};
         const Hit h = intersect_closest(scene, cam);
         o.u.x = h.prim;
-        if (h.valid()) {
-          const RayDifferential diff{c.rx_o, c.rx_d, c.ry_o, c.ry_d};
+        RayDifferential diff{c.rx_o, c.rx_d, c.ry_o, c.ry_d};
+        scale_differentials(diff, c.o, c.d, scene.globals.min_dir_dx.w);
+        if (h.valid() && q.key.y >= 2u) {
+          // Modes 2, 3: one perfectly specular bounce, then the second hit's footprint.
+          o.u.x = gpu::INVALID_INDEX;
+          const SurfacePoint sp = surface_point(scene, cam, h, &diff);
+          const glm::vec3 wo = -c.d;
+          glm::vec3 wi;
+          float eta = 1.0f;
+          if (q.key.y == 2u) {
+            wi = 2.0f * glm::dot(wo, sp.g.ns) * sp.g.ns - wo;
+          } else if (!bxdf::refract_v4(wo, sp.g.ns, q.extra.y, &eta, &wi)) {
+            break;  // total internal reflection: no second ray
+          }
+          RayDifferential out{};
+          const Ray r2 = spawn_ray(sp.g.p, sp.g.ng, sp.g.m, wi);
+          const bool keep = specular_differentials(sp.tex, r2.o, sp.g.ns, sp.g.dndu, sp.g.dndv, wo,
+                                                   wi, q.key.y == 3u, eta, diff, out);
+          const Hit h2 = intersect_closest(scene, r2);
+          o.u.x = h2.prim;
+          o.u.y = keep ? 1u : 0u;
+          if (!h2.valid()) break;
+          const SurfacePoint sp2 = surface_point(scene, r2, h2, keep ? &out : nullptr);
+          o.f0 = glm::vec4(sp2.tex.dpdx, sp2.tex.dudx);
+          o.f1 = glm::vec4(sp2.tex.dpdy, sp2.tex.dudy);
+          o.f2 = glm::vec4(sp2.tex.uv, sp2.tex.dvdx, sp2.tex.dvdy);
+          o.f3 = glm::vec4(sp2.tex.p, 0.0f);
+        } else if (h.valid()) {
           const SurfacePoint sp = surface_point(scene, cam, h, q.key.y == 0u ? &diff : nullptr);
           o.f0 = glm::vec4(sp.tex.dpdx, sp.tex.dudx);
           o.f1 = glm::vec4(sp.tex.dpdy, sp.tex.dudy);

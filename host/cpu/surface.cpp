@@ -48,6 +48,23 @@ SurfaceGeometry triangle_geometry(const SceneTables& scene, std::uint32_t tri, f
     g.dpdv = (duv02.x * dp12 - duv12.x * dp02) / det;  // docs/textures-spec.md 1
   }
   g.uv = b0 * uv0 + b1 * uv1 + b2 * uv2;
+  // docs/textures-spec.md 3.2 (pbrt-v4 Triangle shading geometry): dndu, dndv from the vertex
+  // normals, the Duff pair of the unnormalised dn for a degenerate uv map.
+  if (flags & gpu::SHAPE_FLAG_HAS_NORMALS) {
+    const glm::vec3 n0(v0.n_v), n1(v1.n_v), n2(v2.n_v);
+    if (std::fabs(det) < 1e-9f) {
+      const glm::vec3 dn = glm::cross(n2 - n0, n1 - n0);
+      if (dn != glm::vec3(0.0f)) {
+        const Frame f = Frame::from_z(dn);
+        g.dndu = f.t1;
+        g.dndv = f.t2;
+      }
+    } else {
+      const glm::vec3 dn1 = n0 - n2, dn2 = n1 - n2;
+      g.dndu = (duv12.y * dn1 - duv02.y * dn2) / det;
+      g.dndv = (duv02.x * dn2 - duv12.x * dn1) / det;
+    }
+  }
   return g;
 }
 
@@ -85,6 +102,11 @@ SurfaceGeometry sphere_geometry(const SceneTables& scene, std::uint32_t s, glm::
   const float sin_theta = std::sqrt(std::max(0.0f, 1.0f - cos_theta * cos_theta));
   const float dv_x = -PI * (qz * cos_phi), dv_y = -PI * (qz * sin_phi), dv_z = -PI * (-r * sin_theta);
   g.dpdv = dv_x * ax + dv_y * ay + dv_z * az;
+  // docs/textures-spec.md 3.2: pbrt-v4's Weingarten result dpdu / r_obj, through its normal
+  // transform (a further 1 / s); not flipped with the normal.
+  const float sr = sp.axis_x.w * r;
+  g.dndu = g.dpdu / sr;
+  g.dndv = g.dpdv / sr;
   return g;
 }
 
@@ -135,7 +157,7 @@ SurfacePoint surface_point(const SceneTables& scene, const Ray& ray, const Hit& 
       du = f.t1;
       dv = f.t2;
     }
-    compute_differentials(scene, sp.tex, du, dv, diff, ray.o, ray.d);
+    compute_differentials(scene, sp.tex, du, dv, diff);
   }
   return sp;
 }

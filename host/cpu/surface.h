@@ -20,6 +20,8 @@ struct SurfaceGeometry {
   glm::vec3 dpdu{0.0f};  // dp/du (docs/materials-spec.md 1.1); zero when there is none
   glm::vec3 dpdv{0.0f};  // dp/dv (docs/textures-spec.md 1); zero for a degenerate uv map
   glm::vec2 uv{0.0f};    // surface parameterisation (docs/textures-spec.md 1)
+  glm::vec3 dndu{0.0f};  // shading-normal derivatives (docs/textures-spec.md 3.2)
+  glm::vec3 dndv{0.0f};
 };
 
 /// A shaded hit: geometry, shading frame, material and area light.
@@ -51,7 +53,7 @@ Frame shading_frame(glm::vec3 ns, glm::vec3 dpdu);
 
 /// \brief Shaded hit of a valid Hit of ray (b0 = 1 - b1 - b2 for triangles). When the scene
 ///        has textures, its texture context with the footprint of docs/textures-spec.md 3:
-///        from \p diff (the camera ray's differentials) when given, else approximated.
+///        from \p diff (the ray's differentials, 3.1) when given, else approximated.
 SurfacePoint surface_point(const SceneTables& scene, const Ray& ray, const Hit& hit,
                            const RayDifferential* diff = nullptr);
 

@@ -433,19 +433,60 @@ void approximate_dp_dxy(const SceneTables& s, glm::vec3 p, glm::vec3 n, glm::vec
   dpdy = spp_scale * xform_vector(g.world_from_camera, rot_inv(py - p_down));
 }
 
+void scale_differentials(RayDifferential& diff, glm::vec3 o, glm::vec3 d, float s) {
+  diff.rx_o = o + (diff.rx_o - o) * s;
+  diff.ry_o = o + (diff.ry_o - o) * s;
+  diff.rx_d = d + (diff.rx_d - d) * s;
+  diff.ry_d = d + (diff.ry_d - d) * s;
+}
+
+bool specular_differentials(const TextureContext& ctx, glm::vec3 o, glm::vec3 ns, glm::vec3 dndu,
+                            glm::vec3 dndv, glm::vec3 wo, glm::vec3 wi, bool transmission,
+                            float eta, const RayDifferential& in, RayDifferential& out) {
+  glm::vec3 n = ns;
+  glm::vec3 dndx = dndu * ctx.dudx + dndv * ctx.dvdx;
+  glm::vec3 dndy = dndu * ctx.dudy + dndv * ctx.dvdy;
+  const glm::vec3 dwodx = -in.rx_d - wo, dwody = -in.ry_d - wo;
+  // From the spawned origin (pbrt-v4: p() + dpdx; basalt's spawn offset is large enough to
+  // shift the footprint otherwise, textures-spec 3.1).
+  out.rx_o = o + ctx.dpdx;
+  out.ry_o = o + ctx.dpdy;
+  if (!transmission) {
+    const float dwo_n_dx = glm::dot(dwodx, n) + glm::dot(wo, dndx);
+    const float dwo_n_dy = glm::dot(dwody, n) + glm::dot(wo, dndy);
+    const float won = glm::dot(wo, n);
+    out.rx_d = (wi - dwodx) + 2.0f * (won * dndx + dwo_n_dx * n);
+    out.ry_d = (wi - dwody) + 2.0f * (won * dndy + dwo_n_dy * n);
+  } else {
+    if (glm::dot(wo, n) < 0.0f) {
+      n = -n;
+      dndx = -dndx;
+      dndy = -dndy;
+    }
+    const float dwo_n_dx = glm::dot(dwodx, n) + glm::dot(wo, dndx);
+    const float dwo_n_dy = glm::dot(dwody, n) + glm::dot(wo, dndy);
+    const float won = glm::dot(wo, n), win = glm::dot(wi, n);
+    const float mu = won / eta - std::fabs(win);
+    const float k = 1.0f / eta + (1.0f / (eta * eta)) * won / win;
+    const float dmudx = dwo_n_dx * k, dmudy = dwo_n_dy * k;
+    out.rx_d = (wi - eta * dwodx) + (mu * dndx + dmudx * n);
+    out.ry_d = (wi - eta * dwody) + (mu * dndy + dmudy * n);
+  }
+  // pbrt-v4: "squash potentially troublesome differentials" (NaN fails the test too).
+  for (const glm::vec3& v : {out.rx_d, out.ry_d, out.rx_o, out.ry_o})
+    if (!(glm::dot(v, v) <= 1e16f)) return false;
+  return true;
+}
+
 void compute_differentials(const SceneTables& s, TextureContext& ctx, glm::vec3 dpdu,
-                           glm::vec3 dpdv, const RayDifferential* diff, glm::vec3 ray_o,
-                           glm::vec3 ray_d) {
+                           glm::vec3 dpdv, const RayDifferential* diff) {
   ctx.dpdx = ctx.dpdy = glm::vec3(0.0f);
   ctx.dudx = ctx.dudy = ctx.dvdx = ctx.dvdy = 0.0f;
   if (s.globals.texture_opts.x & gpu::TEXOPT_DISABLE_FILTERING) return;
   const glm::vec3 n = ctx.n, p = ctx.p;
   bool done = false;
   if (diff) {
-    // pbrt-v4 RayDifferential::ScaleDifferentials by max(1/8, 1/sqrt(spp)).
-    const float sc = s.globals.min_dir_dx.w;
-    const glm::vec3 rxo = ray_o + (diff->rx_o - ray_o) * sc, rxd = ray_d + (diff->rx_d - ray_d) * sc;
-    const glm::vec3 ryo = ray_o + (diff->ry_o - ray_o) * sc, ryd = ray_d + (diff->ry_d - ray_d) * sc;
+    const glm::vec3 rxo = diff->rx_o, rxd = diff->rx_d, ryo = diff->ry_o, ryd = diff->ry_d;
     const float ndx = glm::dot(n, rxd), ndy = glm::dot(n, ryd);
     if (ndx != 0.0f && ndy != 0.0f) {
       const float dd = -glm::dot(n, p);

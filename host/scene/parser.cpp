@@ -35,6 +35,11 @@ int positive_int(const ParamSet& ps, const std::string& name, int def, const Sou
 
 namespace fs = std::filesystem;
 
+/// Whether every component of v is finite.
+bool finite3(const glm::vec3& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
 constexpr int kMaxIncludeDepth = 64;
 
 // The attributes AttributeBegin saves and AttributeEnd restores (pbrt-v4 GraphicsState).
@@ -792,12 +797,51 @@ static glm::dvec3 equal_area_square_to_sphere_d(double px, double py) {
 void Parser::image_infinite_light(const ParamSet& ps, const Token& d, const std::string& dir,
                                   float scale, Light& l) {
   const SourceLoc file_loc = ps.loc_of("filename", d.loc);
-  if (const Param* p = ps.find("L"))
+  const Param* portal = ps.find("portal");
+  if (const Param* p = ps.find("L"); p && ps.find("filename"))
     throw SceneError(p->loc,
                      "can't specify both emission \"L\" and \"filename\" with an infinite light");
   l.kind = Light::Kind::InfiniteImage;
+  if (portal) {
+    // pbrt-v4 PortalImageInfiniteLight (textures-spec 6.9): four points in world space (the
+    // CTM orients only the image).
+    const std::vector<glm::vec3> pts = ps.get_point3s("portal");
+    if (pts.size() != 4)
+      throw SceneError(portal->loc, "expected 4 vertices for infinite light \"portal\" but given " +
+                                        std::to_string(pts.size()));
+    for (int i = 0; i < 4; ++i) {
+      if (!finite3(pts[i]))
+        throw SceneError(portal->loc, "infinite light \"portal\" has a non-finite vertex");
+      l.portal[i] = pts[i];
+    }
+    // pbrt-v4 checks (and only prints an error): opposite edges parallel, sides perpendicular.
+    const glm::vec3 p01 = glm::normalize(pts[1] - pts[0]), p12 = glm::normalize(pts[2] - pts[1]);
+    const glm::vec3 p32 = glm::normalize(pts[2] - pts[3]), p03 = glm::normalize(pts[3] - pts[0]);
+    if (!finite3(p01) || !finite3(p12) || !finite3(p32) || !finite3(p03))
+      throw SceneError(portal->loc, "infinite light \"portal\" has coincident vertices");
+    if (std::abs(glm::dot(p01, p32) - 1.0f) > 1e-3f || std::abs(glm::dot(p12, p03) - 1.0f) > 1e-3f ||
+        std::abs(glm::dot(p01, p12)) > 1e-3f || std::abs(glm::dot(p12, p32)) > 1e-3f ||
+        std::abs(glm::dot(p32, p03)) > 1e-3f || std::abs(glm::dot(p03, p01)) > 1e-3f)
+      warn(portal->loc, "infinite light portal isn't a planar rectangle (pbrt-v4 renders on, "
+                        "as basalt does)");
+    l.has_portal = true;
+  }
   const std::string name = ps.get_string("filename", "");
-  if (name.empty()) throw SceneError(file_loc, "infinite light \"filename\" is empty");
+  if (!portal && name.empty()) throw SceneError(file_loc, "infinite light \"filename\" is empty");
+  if (portal && name.empty()) {
+    // pbrt-v4: "L" with a portal is a 1 x 1 image of L's rgb (scale as for an image).
+    l.mapping = 0;
+    if (const Param* p = ps.find("illuminance"))
+      throw SceneError(p->loc, "\"illuminance\" with a portal needs \"filename\"");
+    const glm::vec3 L =
+        ps.get_spectrum("L", SpectrumUse::Illuminant, &scene_.warnings).value_or(glm::vec3(1));
+    if (!std::isfinite(scale)) throw SceneError(ps.loc_of("scale", d.loc), "scale is not finite");
+    l.value = glm::vec3(scale);
+    l.light_from_world = glm::mat3(1.0f);
+    l.image_res = l.image_width = l.image_height = 1;
+    l.image_rgb = {L.x, L.y, L.z};
+    return;
+  }
   l.filename = resolve(name, dir);
   // "mapping" (basalt extension, textures-spec 6.8): the map's parameterisation.
   const SourceLoc mapping_loc = ps.loc_of("mapping", d.loc);
@@ -812,6 +856,9 @@ void Parser::image_infinite_light(const ParamSet& ps, const Token& d, const std:
     throw SceneError(mapping_loc, "unknown infinite light \"mapping\" \"" + mapping +
                                       "\" (expected \"equalarea\", \"latlong\" or \"cube\")");
   }
+  if (portal && l.mapping != 0)
+    throw SceneError(mapping_loc, "an infinite light \"portal\" needs an equal-area map "
+                                  "(\"mapping\" \"equalarea\")");
   // pbrt-v4 Image::Read: 8-bit and 16-bit PNG through sRGB (no "encoding" parameter for this
   // light), EXR and PFM linear.
   DecodedImage im = read_texture_image(l.filename, ColorEncoding{ImageEncoding::SRGB}, file_loc);
@@ -944,10 +991,9 @@ void Parser::light_source(Tokenizer& tok, const Token& d, const std::string& dir
                        "distant light \"from\" and \"to\" are the same point");
     l.dir = glm::normalize(w);
   } else if (type == "infinite") {
-    // pbrt-v4 Light::Create "infinite": uniform without "filename", else ImageInfiniteLight.
-    if (const Param* p = ps.find("portal"))
-      throw SceneError(p->loc, "portal infinite lights (parameter \"portal\") are not supported yet");
-    if (image_light) {
+    // pbrt-v4 Light::Create "infinite": uniform without "filename" or "portal", else
+    // ImageInfiniteLight, or PortalImageInfiniteLight with "portal" (textures-spec 6.9).
+    if (image_light || ps.find("portal")) {
       image_infinite_light(ps, d, dir, scale, l);
       ps.report_unused("LightSource 'infinite'", scene_.warnings);
       scene_.lights.push_back(std::move(l));

@@ -180,6 +180,10 @@ struct Light {
   int mapping = 0;  // Light.data.w: 0 "equalarea", 1 "latlong", 2 "cube"
   std::vector<float> image_rgb;
   glm::mat3 light_from_world{1.0f};
+  // "portal" (pbrt-v4 PortalImageInfiniteLight, docs/textures-spec.md 6.9): world-space
+  // corners p0 .. p3 of the window.
+  bool has_portal = false;
+  glm::vec3 portal[4] = {};
   SourceLoc loc;
 };
 

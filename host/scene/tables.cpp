@@ -171,6 +171,130 @@ std::uint32_t append_distribution_2d(const std::vector<float>& f, std::uint32_t 
   return offset;
 }
 
+// Host-side equal-area octahedral map, direction to [0,1]^2 (Clarberg; pbrt-v4
+// EqualAreaSphereToSquare with the exact arctangent in place of its polynomial), in double.
+glm::dvec2 sphere_to_square_d(glm::dvec3 d) {
+  const double x = std::abs(d.x), y = std::abs(d.y), z = std::abs(d.z);
+  const double r = std::sqrt(std::max(1.0 - z, 0.0));
+  const double a = std::max(x, y);
+  const double b = a == 0.0 ? 0.0 : std::min(x, y) / a;
+  double phi = std::atan(b) * 2.0 / kPi;
+  if (x < y) phi = 1.0 - phi;
+  double v = phi * r, u = r - v;
+  if (d.z < 0.0) {
+    const double t = u;
+    u = 1.0 - v;
+    v = 1.0 - t;
+  }
+  u = std::copysign(u, d.x);
+  v = std::copysign(v, d.y);
+  return {0.5 * (u + 1.0), 0.5 * (v + 1.0)};
+}
+
+// pbrt-v4 Image::BilerpChannel with WrapMode::OctahedralSphere (RemapPixelCoords) of an
+// n x n rgb image at st, channel c.
+double bilerp_octahedral(const std::vector<float>& rgb, int n, glm::dvec2 st, int c) {
+  const double x = st.x * n - 0.5, y = st.y * n - 0.5;
+  const int xi = int(std::floor(x)), yi = int(std::floor(y));
+  const double dx = x - xi, dy = y - yi;
+  auto texel = [&](int px, int py) {
+    if (px < 0) {
+      px = -px;
+      py = n - 1 - py;
+    } else if (px >= n) {
+      px = 2 * n - 1 - px;
+      py = n - 1 - py;
+    }
+    if (py < 0) {
+      px = n - 1 - px;
+      py = -py;
+    } else if (py >= n) {
+      px = n - 1 - px;
+      py = 2 * n - 1 - py;
+    }
+    if (n == 1) px = py = 0;
+    px = std::clamp(px, 0, n - 1);
+    py = std::clamp(py, 0, n - 1);
+    return double(rgb[3 * (std::size_t(py) * n + px) + c]);
+  };
+  return (1 - dx) * (1 - dy) * texel(xi, yi) + dx * (1 - dy) * texel(xi + 1, yi) +
+         (1 - dx) * dy * texel(xi, yi + 1) + dx * dy * texel(xi + 1, yi + 1);
+}
+
+// A portal light's tables (docs/textures-spec.md 6.9; pbrt-v4 PortalImageInfiniteLight
+// constructor): the map rectified into the portal's (alpha, beta) image (data.x), the
+// windowed distribution (func = mean rgb times duv_dw, its summed-area table; data.y =
+// data.z), mapping 3 (data.w), the portal frame (light_from_world), p0 and p2 (pos, dir),
+// and in params.x the area times the mean of mean(max(rgb, 0)) / duv_dw (pbrt-v4 Phi).
+void portal_light_tables(const Light& sl, gpu::Light& l, SceneTables& t) {
+  const int n = sl.image_res;
+  if (n < 1 || sl.image_width != n || sl.image_height != n ||
+      sl.image_rgb.size() != std::size_t(n) * n * 3)
+    throw SceneError(sl.loc, "portal infinite light has no square image");
+  const glm::vec3* q = sl.portal;
+  const glm::vec3 fx = glm::normalize(q[3] - q[0]), fy = glm::normalize(q[1] - q[0]);
+  const glm::vec3 fz = glm::cross(fx, fy);
+  if (!all_finite(fx) || !all_finite(fy) || !(glm::dot(fz, fz) > 0.0f))
+    throw SceneError(sl.loc, "infinite light portal is degenerate");
+  const glm::dmat3 light_from_world(sl.light_from_world);
+  // pbrt-v4 RenderFromImage: (alpha, beta) = -pi/2 + uv pi, v = normalize(tan alpha,
+  // tan beta, 1), duv_dw = pi^2 (1 - v.x^2) (1 - v.y^2) / v.z, world = frame of v.
+  auto image_to_world = [&](double u, double v, double& duv_dw) {
+    const glm::dvec3 w =
+        glm::normalize(glm::dvec3(std::tan(-kPi / 2 + u * kPi), std::tan(-kPi / 2 + v * kPi), 1.0));
+    duv_dw = kPi * kPi * (1 - w.x * w.x) * (1 - w.y * w.y) / w.z;
+    return glm::dvec3(fx) * w.x + glm::dvec3(fy) * w.y + glm::dvec3(fz) * w.z;
+  };
+  const std::size_t cells = std::size_t(n) * n;
+  std::vector<float> rect(3 * cells), func(cells);
+  double phi_sum = 0.0;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      double duv_dw = 0.0;
+      const glm::dvec3 w = image_to_world((x + 0.5) / n, (y + 0.5) / n, duv_dw);
+      const glm::dvec2 st = sphere_to_square_d(glm::normalize(light_from_world * w));
+      const std::size_t i = std::size_t(y) * n + x;
+      double mean = 0.0, clamped = 0.0;
+      for (int c = 0; c < 3; ++c) {
+        const float v = static_cast<float>(bilerp_octahedral(sl.image_rgb, n, st, c));
+        rect[3 * i + c] = v;
+        mean += v;
+        clamped += std::max(0.0f, v);
+      }
+      func[i] = static_cast<float>(mean / 3.0 * duv_dw);
+      if (duv_dw > 0.0) phi_sum += clamped / 3.0 / duv_dw;
+    }
+  gpu::MipLevel level{};
+  level.offset = static_cast<std::uint32_t>(t.texels.size());
+  level.width = level.height = static_cast<std::uint32_t>(n);
+  level.channels = 3;
+  l.data.x = static_cast<std::uint32_t>(t.mip_levels.size());
+  t.mip_levels.push_back(level);
+  t.texels.insert(t.texels.end(), rect.begin(), rect.end());
+  // pbrt-v4 SummedAreaTable: accumulated in double, read back as float.
+  std::vector<double> sat(cells);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const std::size_t i = std::size_t(y) * n + x;
+      double v = func[i];
+      if (x > 0) v += sat[i - 1];
+      if (y > 0) v += sat[i - n];
+      if (x > 0 && y > 0) v -= sat[i - n - 1];
+      sat[i] = v;
+    }
+  const auto offset = static_cast<std::uint32_t>(t.tex_data.size());
+  t.tex_data.insert(t.tex_data.end(), {float(n), float(n), 0.0f, 0.0f});
+  t.tex_data.insert(t.tex_data.end(), func.begin(), func.end());
+  for (double v : sat) t.tex_data.push_back(static_cast<float>(v));
+  l.data.y = l.data.z = offset;
+  l.data.w = 3;
+  l.light_from_world = glm::mat4(glm::transpose(glm::mat3(fx, fy, fz)));
+  l.pos = glm::vec4(q[0], 1.0f);
+  l.dir = glm::vec4(q[2], 0.0f);
+  const double area = double(glm::length(q[1] - q[0])) * double(glm::length(q[3] - q[0]));
+  l.params = glm::vec4(static_cast<float>(area * phi_sum / double(cells)), 0.0f, 0.0f, 0.0f);
+}
+
 // An image infinite light's tables (docs/textures-spec.md section 6; pbrt-v4
 // ImageInfiniteLight constructor): the map as one MipLevel (data.x), pbrt-v4's sampling
 // distribution (Image::GetSamplingDistribution: the channel average of each texel; data.y)
@@ -179,6 +303,7 @@ std::uint32_t append_distribution_2d(const std::vector<float>& f, std::uint32_t 
 // half-texel cells or 1 / r^3 of texels, in double, rounded to float); the mapping (data.w);
 // the light's frame.
 void image_light_tables(const Light& sl, gpu::Light& l, SceneTables& t) {
+  if (sl.has_portal) return portal_light_tables(sl, l, t);
   const std::uint32_t mapping = static_cast<std::uint32_t>(sl.mapping);
   const auto w = static_cast<std::uint32_t>(sl.image_width > 0 ? sl.image_width : sl.image_res);
   const auto h = static_cast<std::uint32_t>(sl.image_height > 0 ? sl.image_height : sl.image_res);
@@ -256,7 +381,9 @@ double light_power(const gpu::Light& l, const std::vector<gpu::Sphere>& spheres,
     case gpu::LIGHT_DISTANT: p = kPi * R * R * L; break;
     case gpu::LIGHT_INFINITE_UNIFORM: p = 4.0 * kPi * kPi * R * R * L; break;
     case gpu::LIGHT_INFINITE_IMAGE:  // L is the scale; the image average as pbrt-v4 Phi
-      p = 4.0 * kPi * kPi * R * R * L * image_light_average(l, mips, texels);
+      // (a portal's area-weighted average is in params.x, textures-spec 6.9).
+      p = l.data.w == 3 ? L * l.params.x
+                        : 4.0 * kPi * kPi * R * R * L * image_light_average(l, mips, texels);
       break;
     case gpu::LIGHT_AREA_TRIANGLE: p = kPi * L * l.params.x * sides; break;
     case gpu::LIGHT_AREA_SPHERE: {
@@ -398,6 +525,7 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
         t.features |= gpu::FEATURE_LIGHT_INFINITE;
         if (sl.kind == Light::Kind::InfiniteImage) {
           t.features |= gpu::FEATURE_LIGHT_INFINITE_IMAGE;
+          if (sl.has_portal) t.features2 |= gpu::FEATURE2_ENV_PORTAL;
           image_light_tables(sl, l, t);
         }
         break;
@@ -422,7 +550,7 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
         throw SceneError(shape.loc, "sphere radius must be positive and finite");
       gpu::Sphere s{};
       s.center_radius = glm::vec4(center, radius);
-      s.axis_x = glm::vec4(sim.axis[0], 0.0f);
+      s.axis_x = glm::vec4(sim.axis[0], sim.scale);  // w: the scale (textures-spec 3.2)
       s.axis_y = glm::vec4(sim.axis[1], 0.0f);
       s.axis_z = glm::vec4(sim.axis[2], 0.0f);
       s.material = material;

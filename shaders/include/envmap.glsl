@@ -18,6 +18,15 @@
 // loop over 1 texel (nearest) or 4 (lat-long bilerp) with one fetch, through texel_at).
 // Arithmetic is precise (no fma contraction), sums left to right, sin / cos / acos / atan2
 // from trig.glsl.
+//
+// Portals (mapping 3, ENVMAP_PORTAL; pbrt-v4 PortalImageInfiniteLight, spec 6.9), compiled
+// only into pipelines with FEATURE2_ENV_PORTAL: data.x = the rectified image, data.y = data.z
+// = offset of the windowed distribution (nx, ny, 0, 0, func[nx ny], sat[nx ny]),
+// light_from_world = the portal frame as rows, pos.xyz = p0, dir.xyz = p2. Each portal helper
+// has one call site per render-shader function: env_eval maps the direction and the window's
+// two corners from both points in one loop (portal_eval_uv), env_sample evaluates every
+// summed-area integral of its two bisections in one loop (portal_sample_uv), and shares
+// env_sincos (tan = sin / cos of the two angles) and env_image_le with the other mappings.
 #ifndef BASALT_ENVMAP_GLSL
 #define BASALT_ENVMAP_GLSL
 
@@ -28,12 +37,14 @@
 const uint ENVMAP_EQUAL_AREA = 0u;
 const uint ENVMAP_LATLONG = 1u;
 const uint ENVMAP_CUBE = 2u;
+const uint ENVMAP_PORTAL = 3u;  // 6.9
 
 // Constants of 6.8 (as float literals of the spec; PI of math.glsl is the same float).
 const float ENV_INV_PI = 0.318309886;
 const float ENV_INV_2PI = 0.159154937;
 const float ENV_TWO_PI = 6.28318548;  // 2 * PI in float (exact)
 const float ENV_TWO_PI2 = 19.7392088; // 2 pi^2
+const float ENV_PI2 = 9.86960411;     // PI * PI in float (6.9)
 
 // copysign(m, s) for any m: |m| with the sign bit of s (std::copysign).
 float env_copysign(float m, float s) {
@@ -127,7 +138,9 @@ int env_mod(int a, int b) { return a >= 0 ? a % b : b - 1 - ((-1 - a) % b); }
 //   WrapMode::OctahedralSphere (util/image.h RemapPixelCoords);
 // - lat-long: pbrt-v3 MIPMap::Lookup at width 0 = spec 4.2 step 2's Bilerp at level 0 with
 //   repeat wrap in both axes, p = (u, v);
-// - cube: nearest texel of face `face` at p = face coordinates (fu, fv) in [0,1]^2.
+// - cube: nearest texel of face `face` at p = face coordinates (fu, fv) in [0,1]^2;
+// - portal: the rectified image's nearest texel, clamped (pbrt-v4 PortalImageInfiniteLight::
+//   ImageLookup, LookupNearestChannel with WrapMode::Clamp; spec 6.9 lookup).
 // One loop over the taps (1 nearest, 4 bilerp) with a single fetch; a 1-channel image gives
 // (g, g, g).
 vec3 env_image_le(uint light, vec2 p, int face, uint mapping) {
@@ -153,6 +166,9 @@ vec3 env_image_le(uint light, vec2 p, int face, uint mapping) {
     // tx = min(int(fu n), n - 1), ty = face n + min(int(fv n), n - 1), n = width.
     x = min(int(p.x * float(w)), w - 1);
     y = face * w + min(int(p.y * float(w)), w - 1);
+  } else if ((FEATURES2 & FEATURE2_ENV_PORTAL) != 0u && mapping == ENVMAP_PORTAL) {
+    x = int(p.x * float(w));  // clamped to the image below
+    y = int(p.y * float(h));
   } else {
     x = int(p.x * float(w));
     y = int(p.y * float(h));
@@ -198,6 +214,234 @@ vec3 env_image_le(uint light, vec2 p, int face, uint mapping) {
   return lights[light].L.rgb * max(sum, vec3(0.0));
 }
 
+// pbrt-v4 PortalImageInfiniteLight::ImageFromRender (lights.h; spec 6.9 world_to_image):
+// world direction w -> portal image uv = ((atan2(x, z) + pi/2) / pi, (atan2(y, z) + pi/2) / pi)
+// clamped to [0, 1], and duv_dw = pi^2 (1 - x^2) (1 - y^2) / z, with (x, y, z) = w in the
+// portal frame (not normalised). False (none) when z <= 0 (or NaN).
+bool portal_world_to_image(uint light, vec3 w, out vec2 uv, out float duv_dw) {
+  mat4 m = lights[light].light_from_world;
+  precise vec3 wp = m[0].xyz * w.x + m[1].xyz * w.y + m[2].xyz * w.z;
+  uv = vec2(0.0);
+  duv_dw = 0.0;
+  if (!(wp.z > 0.0)) return false;  // z <= 0 (or NaN): none
+  precise float j = ((ENV_PI2 * (1.0 - wp.x * wp.x)) * (1.0 - wp.y * wp.y)) / wp.z;
+  duv_dw = j;
+  [[dont_unroll]] for (int k = 0; k < 2; ++k) {  // one atan2_accurate call site
+    float a = atan2_accurate(k == 0 ? wp.x : wp.y, wp.z);
+    precise float t = (a + PI_OVER_2) / PI;
+    uv[k] = clamp(t, 0.0, 1.0);
+  }
+  return true;
+}
+
+// pbrt-v4 SummedAreaTable::Integral (util/sampling.h; spec 6.9 integral) of the windowed
+// distribution at offset o over the box (bmin, bmax): the four corner Lookups A = (max.x,
+// max.y), B = (min.x, max.y), C = (min.x, min.y), D = (max.x, min.y), each bilinear in the
+// table (LookupInt: 0 on the lower borders, clamped at the upper ones); (A - B) + (C - D) with
+// both differences exact (Knuth's two_diff; pbrt-v4 forms them in double); max(. / (nx ny), 0).
+float portal_integral(uint o, uint nx, uint ny, vec2 bmin, vec2 bmax) {
+  uint sat = o + 4u + nx * ny;
+  precise vec4 s;
+  [[dont_unroll]] for (int c = 0; c < 4; ++c) {
+    float x = (c == 0 || c == 3) ? bmax.x : bmin.x;
+    float y = c < 2 ? bmax.y : bmin.y;
+    precise float xs = x * float(nx);
+    precise float ys = y * float(ny);
+    int x0 = int(xs), y0 = int(ys);
+    precise float dx = xs - float(x0);
+    precise float dy = ys - float(y0);
+    // v00, v01, v10, v11 weighted ((1-dx)(1-dy)), ((1-dx) dy), (dx (1-dy)), (dx dy), summed
+    // left to right from the first term (0 + t00 = t00 exactly).
+    precise float sum = 0.0;
+    [[dont_unroll]] for (int t = 0; t < 4; ++t) {
+      int i = x0 + (t >> 1), jj = y0 + (t & 1);
+      float v = 0.0;
+      if (i > 0 && jj > 0)
+        v = tex_data[sat + uint(min(jj - 1, int(ny) - 1)) * nx + uint(min(i - 1, int(nx) - 1))];
+      precise float wx = (t >> 1) != 0 ? dx : 1.0 - dx;
+      precise float wy = (t & 1) != 0 ? dy : 1.0 - dy;
+      sum += (wx * wy) * v;
+    }
+    s[c] = sum;
+  }
+  // two_diff(a, b): h = a - b, bb = h - a, l = (a - (h - bb)) - (b + bb), h + l = a - b exactly.
+  precise float h1 = s.x - s.y;
+  precise float b1 = h1 - s.x;
+  precise float l1 = (s.x - (h1 - b1)) - (s.y + b1);
+  precise float h2 = s.z - s.w;
+  precise float b2 = h2 - s.z;
+  precise float l2 = (s.z - (h2 - b2)) - (s.w + b2);
+  precise float total = (h1 + h2) + (l1 + l2);
+  precise float r = total / float(nx * ny);
+  return max(r, 0.0);
+}
+
+// The portal half of env_eval (pbrt-v4 PortalImageInfiniteLight::Le and PDF_Li, lights.cpp;
+// spec 6.9 Le and pdf): uv_le = world_to_image(normalize(w)), visible when it and the window
+// seen from ray_o (ImageBounds: the box of the images of p0 and p2) exist and uv_le lies in it
+// (inclusive); uv_pdf, duv_dw = world_to_image(w) (duv_dw = 0 if none) and integral = the
+// summed-area integral over the window seen from p_ref (0 if none). One loop maps the six
+// directions (normalize(w), w, p0 - ray_o, p2 - ray_o, p0 - p_ref, p2 - p_ref), copying
+// instead when w is already normalised or p_ref == ray_o.
+void portal_eval_uv(uint light, vec3 w, vec3 ray_o, vec3 p_ref, out vec2 uv_le,
+                    out bool visible, out vec2 uv_pdf, out float duv_dw, out float integral) {
+  vec3 wn = safe_normalize(w);
+  bool same_w = all(equal(floatBitsToUint(wn), floatBitsToUint(w)));
+  bool same_p = all(equal(floatBitsToUint(p_ref), floatBitsToUint(ray_o)));
+  vec3 c0 = lights[light].pos.xyz, c2 = lights[light].dir.xyz;
+  bool ok_le = false, ok_pdf = false, ok_o = true, ok_p = true;
+  float j_le = 0.0, j_pdf = 0.0;
+  vec2 a_o = vec2(0.0), b_o = vec2(0.0), a_p = vec2(0.0), b_p = vec2(0.0);
+  uv_le = vec2(0.0);
+  uv_pdf = vec2(0.0);
+  [[dont_unroll]] for (int k = 0; k < 6; ++k) {
+    if ((k == 1 && same_w) || (k >= 4 && same_p)) continue;  // copied below
+    vec3 d;
+    if (k < 2) {
+      d = k == 0 ? wn : w;
+    } else {
+      precise vec3 e = ((k & 1) == 0 ? c0 : c2) - (k < 4 ? ray_o : p_ref);
+      d = safe_normalize(e);
+    }
+    vec2 t;
+    float j;
+    bool ok = portal_world_to_image(light, d, t, j);
+    if (k == 0) {
+      uv_le = t;
+      j_le = j;
+      ok_le = ok;
+    } else if (k == 1) {
+      uv_pdf = t;
+      j_pdf = j;
+      ok_pdf = ok;
+    } else if (k == 2) {
+      a_o = t;
+      ok_o = ok;
+    } else if (k == 3) {
+      b_o = t;
+      ok_o = ok_o && ok;
+    } else if (k == 4) {
+      a_p = t;
+      ok_p = ok;
+    } else {
+      b_p = t;
+      ok_p = ok_p && ok;
+    }
+  }
+  if (same_w) {
+    uv_pdf = uv_le;
+    j_pdf = j_le;
+    ok_pdf = ok_le;
+  }
+  if (same_p) {
+    a_p = a_o;
+    b_p = b_o;
+    ok_p = ok_o;
+  }
+  visible = ok_le && ok_o && all(greaterThanEqual(uv_le, min(a_o, b_o))) &&
+            all(lessThanEqual(uv_le, max(a_o, b_o)));
+  duv_dw = ok_pdf ? j_pdf : 0.0;
+  integral = 0.0;
+  if (ok_pdf && j_pdf != 0.0 && ok_p) {
+    uint o = lights[light].data.y;
+    integral = portal_integral(o, uint(tex_data[o]), uint(tex_data[o + 1u]), min(a_p, b_p),
+                               max(a_p, b_p));
+  }
+}
+
+// The portal half of env_sample before the direction (pbrt-v4 PortalImageInfiniteLight::
+// SampleLi with ImageBounds and WindowedPiecewiseConstant2D::Sample, util/sampling.h; spec 6.9
+// sample): the window box seen from p; I = its integral; x = bisect(Px, u.x) over the box's
+// columns with Px(s) = integral(box with max.x = s) / I; the column box c of x's cell;
+// y = bisect(Py, u.y) with Py(s) = integral(c with max.y = s) / integral(c); map_pdf =
+// func(x, y) / I. Bisection (SampleBisection): halve [lo, hi] while ceil(n hi) - floor(n lo)
+// > 1 (at most 64 steps), then interpolate between P(lo) and P(hi) (t = 0.5 if they are
+// equal). Every integral is evaluated at the one call site of a state machine. False when
+// there is no sample (no window, a zero integral).
+bool portal_sample_uv(uint light, vec2 u, vec3 p, out vec2 uv, out float map_pdf) {
+  uv = vec2(0.0);
+  map_pdf = 0.0;
+  vec2 ca = vec2(0.0), cb = vec2(0.0);
+  [[dont_unroll]] for (int k = 0; k < 2; ++k) {  // ImageBounds: the images of p0 and p2
+    precise vec3 e = (k == 0 ? lights[light].pos.xyz : lights[light].dir.xyz) - p;
+    vec2 t;
+    float j;
+    if (!portal_world_to_image(light, safe_normalize(e), t, j)) return false;
+    if (k == 0) ca = t; else cb = t;
+  }
+  vec2 bmin = min(ca, cb), bmax = max(ca, cb);
+  uint o = lights[light].data.y;
+  uint nx = uint(tex_data[o]), ny = uint(tex_data[o + 1u]);
+  // k = 0 samples x in the window (cmin, cmax) = box, k = 1 samples y in the column c. States:
+  // 0 = the normaliser (I, then integral(c)), 1 = P(mid), 2 = P(lo), 3 = P(hi).
+  vec2 cmin = bmin, cmax = bmax;
+  float total = 0.0, norm = 1.0, lo = 0.0, hi = 0.0, mid = 0.0, pl = 0.0;
+  int k = 0, state = 0, steps = 0;
+  bool done = false;
+  [[dont_unroll]] for (int it = 0; it < 2 * (64 + 3); ++it) {
+    vec2 qmax = cmax;
+    if (state != 0) qmax[k] = state == 1 ? mid : (state == 2 ? lo : hi);
+    float v = portal_integral(o, nx, ny, cmin, qmax);
+    float uk = k == 0 ? u.x : u.y;
+    float n = float(k == 0 ? nx : ny);
+    if (state == 0) {
+      if (v == 0.0) return false;
+      norm = v;
+      if (k == 0) total = v;
+      lo = bmin[k];
+      hi = bmax[k];
+      steps = 0;
+    } else {
+      precise float pv = v / norm;
+      if (state == 1) {
+        if (pv > uk) hi = mid; else lo = mid;
+        ++steps;
+      } else if (state == 2) {
+        pl = pv;
+        state = 3;
+        continue;
+      } else {
+        // Lerp(t, lo, hi) clamped to [lo, hi].
+        precise float dp = pv - pl;
+        precise float t = dp > 0.0 ? (uk - pl) / dp : 0.5;
+        precise float xl = (1.0 - t) * lo + t * hi;
+        float x = clamp(xl, lo, hi);
+        uv[k] = x;
+        if (k == 1) {
+          done = true;
+          break;
+        }
+        // The column of x: (floor(x nx) / nx, min.y) .. (ceil(x nx) / nx, max.y), one cell
+        // wide when x lies on a cell edge.
+        precise float xn = x * n;
+        precise float c_lo = floor(xn) / n;
+        precise float c_hi = ceil(xn) / n;
+        if (c_lo == c_hi) c_hi = c_hi + 1.0 / n;
+        cmin = vec2(c_lo, bmin.y);
+        cmax = vec2(c_hi, bmax.y);
+        k = 1;
+        state = 0;
+        continue;
+      }
+    }
+    // After the normaliser or a step: bisect on, or evaluate the end points.
+    precise float span = ceil(n * hi) - floor(n * lo);
+    if (span > 1.0 && steps < 64) {
+      precise float m2 = (lo + hi) / 2.0;
+      mid = m2;
+      state = 1;
+    } else {
+      state = 2;
+    }
+  }
+  if (!done) return false;
+  // WindowedPiecewiseConstant2D::Eval at (x, y), divided by I.
+  uint ix = uint(min(int(uv.x * float(nx)), int(nx) - 1));
+  uint iy = uint(min(int(uv.y * float(ny)), int(ny) - 1));
+  map_pdf = tex_data[o + 4u + iy * nx + ix] / total;
+  return true;
+}
+
 // Le and pdf at one world direction w (pointing away from the scene), sharing the lookup
 // point (docs/textures-spec.md 6.3, 6.4, 6.8): returns Le (scale applied); pdf = the solid-angle
 // pdf of the MIS-compensated distribution when compensated (allowIncompletePDF), else the
@@ -206,9 +450,11 @@ vec3 env_image_le(uint light, vec2 p, int face, uint mapping) {
 //   equal-area: pdf = mapPdf / (4 pi) (pbrt-v4 PDF_Li);
 //   lat-long:   pdf = mapPdf / (2 pi^2 sin theta), sin theta = sqrt(x^2 + y^2) of the
 //               normalised wl, 0 if sin theta == 0 (pbrt-v3);
-//   cube:       pdf = mapPdf * r^3 / 24 on the strip, mapPdf at the looked-up texel.
+//   cube:       pdf = mapPdf * r^3 / 24 on the strip, mapPdf at the looked-up texel;
+//   portal:     pdf = (func(uv) / window integral from p_ref) / duv_dw (6.9), and Le is 0
+//               unless the direction passes through the window seen from ray_o.
 // The render shader calls this once (escaped rays); env_le and env_pdf are its two halves.
-vec3 env_eval(uint light, vec3 w_world, bool compensated, out float pdf) {
+vec3 env_eval(uint light, vec3 w_world, bool compensated, vec3 ray_o, vec3 p_ref, out float pdf) {
   uint mapping = lights[light].data.w;
   // To the light's frame (6.2): normalize(m0 w.x + m1 w.y + m2 w.z), summed left to right.
   mat4 m = lights[light].light_from_world;
@@ -217,8 +463,15 @@ vec3 env_eval(uint light, vec3 w_world, bool compensated, out float pdf) {
   vec2 uv;          // the distribution's (u, v)
   vec2 p;           // the texel lookup's point (env_image_le)
   int face = 0;     // cube face
-  float jac = 0.0;  // lat-long: sin theta; cube: r
-  if (mapping == ENVMAP_LATLONG) {
+  float jac = 0.0;  // lat-long: sin theta; cube: r; portal: duv_dw
+  bool portal = (FEATURES2 & FEATURE2_ENV_PORTAL) != 0u && mapping == ENVMAP_PORTAL;
+  bool visible = true;       // portal: the Le direction passes through the window
+  float portal_int = 0.0;    // portal: the window's integral seen from p_ref
+  if (portal) {
+    // Le at p = world_to_image(normalize(w)) if seen through the window from ray_o; the pdf at
+    // uv = world_to_image(w) against the window seen from p_ref (6.9).
+    portal_eval_uv(light, w_world, ray_o, p_ref, p, visible, uv, jac, portal_int);
+  } else if (mapping == ENVMAP_LATLONG) {
     // theta = acos(clamp(z)), phi = atan2(y, x) (+ 2 pi if negative), uv = (phi / 2pi,
     // theta / pi). atan2_accurate returns 0 for a zero (x, y); C's atan2 gives +-pi there when
     // x is -0, which the + 2 pi turns into pi.
@@ -283,10 +536,17 @@ vec3 env_eval(uint light, vec3 w_world, bool compensated, out float pdf) {
   }
   iu = clamp(iu, 0, int(nu) - 1);
   iv = clamp(iv, 0, int(nv) - 1);
-  float f = tex_data[o + 5u + 2u * nv + uint(iv) * (2u * nu + 2u) + uint(iu)];
+  // Portal: WindowedPiecewiseConstant2D::Eval reads func[iv nx + iu] at o + 4 (the same
+  // min(int(uv nx), nx - 1) texel, uv being in [0, 1]).
+  uint fi = portal ? o + 4u + uint(iv) * nu + uint(iu)
+                   : o + 5u + 2u * nv + uint(iv) * (2u * nu + 2u) + uint(iu);
+  float f = tex_data[fi];
   float map_pdf = integral > 0.0 ? f / integral : 0.0;
   precise float pd;
-  if (mapping == ENVMAP_LATLONG) {
+  if (portal) {
+    // pdf = (func(uv) / I) / duv_dw, 0 if uv, the window or I is missing or duv_dw is 0.
+    pd = (portal_int != 0.0 && jac != 0.0) ? (f / portal_int) / jac : 0.0;
+  } else if (mapping == ENVMAP_LATLONG) {
     pd = jac == 0.0 ? 0.0 : map_pdf / (ENV_TWO_PI2 * jac);
   } else if (mapping == ENVMAP_CUBE) {
     pd = map_pdf * (jac * jac * jac) / 24.0;
@@ -294,19 +554,20 @@ vec3 env_eval(uint light, vec3 w_world, bool compensated, out float pdf) {
     pd = map_pdf / (4.0 * PI);
   }
   pdf = pd;
-  return env_image_le(light, p, face, mapping);
+  vec3 le = env_image_le(light, p, face, mapping);
+  return visible ? le : vec3(0.0);
 }
 
 // Le: radiance arriving from world direction w (pointing away from the scene), scale applied.
-vec3 env_le(uint light, vec3 w_world) {
+vec3 env_le(uint light, vec3 w_world, vec3 ray_o) {
   float pdf_unused;
-  return env_eval(light, w_world, false, pdf_unused);
+  return env_eval(light, w_world, false, ray_o, ray_o, pdf_unused);
 }
 
 // PDF_Li: solid-angle pdf of direction w (see env_eval).
-float env_pdf(uint light, vec3 w_world, bool compensated) {
+float env_pdf(uint light, vec3 w_world, bool compensated, vec3 p_ref) {
   float pdf;
-  env_eval(light, w_world, compensated, pdf);
+  env_eval(light, w_world, compensated, p_ref, p_ref, pdf);
   return pdf;
 }
 
@@ -319,22 +580,28 @@ float env_pdf(uint light, vec3 w_world, bool compensated) {
 //               pdf = mapPdf / (2 pi^2 sin t), no sample unless sin t > 0;
 //   cube:       face = (sampled row) / n, (a, b) = 2 (u, clamp(6 v - face, 0, 1)) - 1,
 //               wl = normalize of the face's point, pdf = mapPdf r^3 / 24;
+//   portal:     (uv, mapPdf) of the window seen from p_ref (portal_sample_uv), wl =
+//               normalize(tan alpha, tan beta, 1), pdf = mapPdf / duv_dw (6.9);
 // wi = world from light of wl (not renormalised), le = the image at the sampled point.
 // False (wi, pdf, le all 0) when mapPdf is 0 or there is no sample.
-bool env_sample(uint light, vec2 u, bool compensated, out vec3 wi, out float pdf, out vec3 le) {
+bool env_sample(uint light, vec2 u, bool compensated, vec3 p_ref, out vec3 wi, out float pdf,
+                out vec3 le) {
   wi = vec3(0.0);
   pdf = 0.0;
   le = vec3(0.0);
+  uint mapping = lights[light].data.w;
+  bool portal = (FEATURES2 & FEATURE2_ENV_PORTAL) != 0u && mapping == ENVMAP_PORTAL;
   uint o = compensated ? lights[light].data.z : lights[light].data.y;
   uint nu = uint(tex_data[o]), nv = uint(tex_data[o + 1u]);
   // Step 0: the marginal (func at o + 4, cdf after it); step 1: the conditional of row v.
+  // (A portal samples its windowed distribution instead, portal_sample_uv.)
   uint base = o + 4u, n = nv;
   float integral = tex_data[o + 2u];
   float uk = u.y;
   vec2 uv = vec2(0.0);
   float pdf_v = 0.0, pdf_u = 0.0;
   uint row = 0u;  // the sampled row (lo of the marginal)
-  [[dont_unroll]] for (uint k = 0u; k < 2u; ++k) {
+  [[dont_unroll]] for (uint k = 0u; k < (portal ? 0u : 2u); ++k) {
     uint cdf = base + n;
     // Largest i < n with cdf[i] <= uk (pbrt-v4 FindInterval).
     uint lo = 0u, hi = n;
@@ -362,8 +629,8 @@ bool env_sample(uint light, vec2 u, bool compensated, out vec3 wi, out float pdf
     }
   }
   float map_pdf = pdf_u * pdf_v;
+  if (portal && !portal_sample_uv(light, u, p_ref, uv, map_pdf)) return false;
   if (map_pdf == 0.0) return false;
-  uint mapping = lights[light].data.w;
   vec3 wl;
   vec2 p = uv;   // the texel lookup's point
   int face = 0;  // cube face
@@ -396,18 +663,23 @@ bool env_sample(uint light, vec2 u, bool compensated, out vec3 wi, out float pdf
     pd = map_pdf * (r * r * r) / 24.0;
     p = vec2(uv.x, fv);
   } else {
-    // Equal-area needs sin and cos of one angle (phi), lat-long of two (theta, phi): one
-    // env_sincos call site for both (all angles are >= 0).
+    // Equal-area needs sin and cos of one angle (phi), lat-long of two (theta, phi), a portal
+    // of two (|alpha|, |beta|, for tan = sin / cos): one env_sincos call site for all (all
+    // angles are >= 0).
     bool latlong = mapping == ENVMAP_LATLONG;
     float eu = 0.0, ev = 0.0, er = 0.0, esd = 0.0;
     precise vec2 ang;
+    // Portal (pbrt-v4 RenderFromImage): alpha = -pi/2 + u pi, beta = -pi/2 + v pi.
+    precise vec2 ab = vec2(-PI_OVER_2 + uv.x * PI, -PI_OVER_2 + uv.y * PI);
     if (latlong) {
       ang = vec2(uv.y * PI, uv.x * ENV_TWO_PI);
+    } else if (portal) {
+      ang = abs(ab);
     } else {
       ang = vec2(equal_area_phi(uv, eu, ev, er, esd), 0.0);
     }
     vec2 sn = vec2(0.0), cs = vec2(1.0);
-    [[dont_unroll]] for (int k = 0; k < (latlong ? 2 : 1); ++k) {
+    [[dont_unroll]] for (int k = 0; k < (latlong || portal ? 2 : 1); ++k) {
       float s, c;
       env_sincos(k == 0 ? ang.x : ang.y, s, c);
       if (k == 0) {
@@ -423,6 +695,17 @@ bool env_sample(uint light, vec2 u, bool compensated, out vec3 wi, out float pdf
       precise vec3 wll = vec3(sn.x * cs.y, sn.x * sn.y, cs.x);
       wl = wll;
       pd = map_pdf / (ENV_TWO_PI2 * sn.x);
+    } else if (portal) {
+      // (x, y) = (tan alpha, tan beta) (sin_accurate of a negative angle is -sin of its
+      // magnitude); v = normalize(x, y, 1); duv_dw = pi^2 (1 - v.x^2) (1 - v.y^2) / v.z;
+      // pdf = mapPdf / duv_dw; no sample if duv_dw == 0 or the pdf is not > 0 (6.9).
+      precise vec2 tn = vec2((ab.x < 0.0 ? -sn.x : sn.x) / cs.x,
+                             (ab.y < 0.0 ? -sn.y : sn.y) / cs.y);
+      wl = safe_normalize(vec3(tn, 1.0));
+      precise float duv_dw = ((ENV_PI2 * (1.0 - wl.x * wl.x)) * (1.0 - wl.y * wl.y)) / wl.z;
+      if (duv_dw == 0.0) return false;
+      pd = map_pdf / duv_dw;
+      if (!(pd > 0.0)) return false;
     } else {
       wl = equal_area_direction(sn.x, cs.x, eu, ev, er, esd);
       pd = map_pdf / (4.0 * PI);

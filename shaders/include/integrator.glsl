@@ -15,14 +15,14 @@
 // Radiance of an escaped ray of direction d from the infinite lights (uniform and
 // environment maps, through the one infinite_light_le call site), MIS-weighted against light
 // sampling unless the previous vertex could not sample lights (camera or specular).
-vec3 escaped_radiance(vec3 d, bool unweighted, float pdf_prev) {
+vec3 escaped_radiance(vec3 o, vec3 d, vec3 p_prev, bool unweighted, float pdf_prev) {
   vec3 L = vec3(0.0);
   if ((FEATURES & (FEATURE_LIGHT_INFINITE | FEATURE_LIGHT_INFINITE_IMAGE)) != 0u) {
     uint n = min(globals.counts.y, MAX_INFINITE_LIGHTS);
     [[dont_unroll]] for (uint k = 0u; k < n; ++k) {
       uint li = globals.infinite_lights[k];
       float pl;
-      vec3 Le = infinite_light_le(li, d, pl);
+      vec3 Le = infinite_light_le(li, o, p_prev, d, pl);
       float w = unweighted ? 1.0 : power_heuristic(pdf_prev, pl);
       L += w * Le;
     }
@@ -50,16 +50,20 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
   uint crossings = 0u;
   uint max_depth = globals.image.z;
   uint num_lights = globals.counts.x;
+  // The ray's differentials (docs/textures-spec.md 3.1): the camera ray's, scaled by
+  // max(1/8, 1/sqrt(spp)), carried through interfaces and perfectly specular bounces.
+  bool has_diff = (FEATURES & FEATURE_TEXTURES) != 0u;
+  RayDiff rd = RayDiff(cr.rx_o, cr.rx_d, cr.ry_o, cr.ry_d);
+  if (has_diff) rd = scale_differentials(rd, cr.o, cr.d, globals.min_dir_dx.w);
   while (true) {
     Hit hit = intersect_closest(ray);
     ++rays;
     if (hit.prim == INVALID_INDEX) {
-      L += beta * escaped_radiance(ray.d, depth == 0u || specular, pdf_prev);
+      L += beta * escaped_radiance(ray.o, ray.d, p_prev, depth == 0u || specular, pdf_prev);
       break;
     }
-    // The camera ray's differentials serve its first hit (and through interfaces); later
-    // hits approximate the footprint (docs/textures-spec.md section 3).
-    SurfacePoint sp = surface_point(ray, hit, depth == 0u, cr.rx_o, cr.rx_d, cr.ry_o, cr.ry_d);
+    // The footprint from the ray's differentials, else approximated (textures-spec 3).
+    SurfacePoint sp = surface_point(ray, hit, has_diff, rd);
     vec3 wo = -ray.d;
 
     // Emission of an area light hit by the path.
@@ -86,6 +90,10 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
       ++crossings;
       specular = true;
       ray = spawn_ray(sp.p, sp.ng, sp.m, ray.d);
+      if (has_diff) {  // pbrt-v4 SkipIntersection: the differential origins move to the hit
+        rd.rx_o = point_along(rd.rx_o, rd.rx_d, hit.t);
+        rd.ry_o = point_along(rd.ry_o, rd.ry_d, hit.t);
+      }
       continue;
     }
 #endif
@@ -154,7 +162,16 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
     p_prev = sp.p;
     ng_prev = sp.ng;
     m_prev = sp.m;
+    // Differentials survive exactly-specular reflection and transmission only (3.1).
+    uint kind = bs.flags & (BSDF_SPECULAR | BSDF_REFLECTION | BSDF_TRANSMISSION | BSDF_DIFFUSE |
+                            BSDF_GLOSSY);
+    bool spec_t = kind == (BSDF_SPECULAR | BSDF_TRANSMISSION);
     ray = spawn_ray(sp.p, sp.ng, sp.m, wi);
+    if (has_diff && (spec_t || kind == (BSDF_SPECULAR | BSDF_REFLECTION)))
+      has_diff = specular_differentials(sp.tex, ray.o, sp.ns, sp.dndu, sp.dndv, wo, wi, spec_t,
+                                        bs.eta, rd);
+    else
+      has_diff = false;
 
     // Russian roulette on beta x etaScale (pbrt-v4 13.4.2).
     float bmax = max_component(beta * eta_scale);

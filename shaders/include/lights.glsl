@@ -139,7 +139,7 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
       // (allowIncompletePDF = true; docs/textures-spec.md section 6). The only env_sample
       // call of the render shader.
       if ((FEATURES & FEATURE_LIGHT_INFINITE_IMAGE) != 0u) {
-        ls.at_infinity = env_sample(li, u, true, ls.wi, ls.pdf, ls.Li);
+        ls.at_infinity = env_sample(li, u, true, p, ls.wi, ls.pdf, ls.Li);
       }
       break;
     case LIGHT_AREA_TRIANGLE:
@@ -239,12 +239,13 @@ float light_pdf(uint li, vec3 p_prev, vec3 ng_prev, float m_prev, vec3 q, vec3 n
 // pmf-weighted solid-angle pdf with which light_sample would have produced w (MIS weight,
 // docs/path-spec.md section 7; pbrt-v4 Le and PMF * PDF_Li with allowIncompletePDF = true).
 // One function for every infinite tag, so that env_eval (Le and pdf) has one call site.
-vec3 infinite_light_le(uint li, vec3 w, out float pl) {
+// o is the ray's origin (Le) and p_prev the previous vertex (the pdf): only portals read them.
+vec3 infinite_light_le(uint li, vec3 o, vec3 p_prev, vec3 w, out float pl) {
   pl = 0.0;
   uint type = lights[li].type;
   if ((FEATURES & FEATURE_LIGHT_INFINITE_IMAGE) != 0u && type == LIGHT_INFINITE_IMAGE) {
     float pdf;
-    vec3 le = env_eval(li, w, true, pdf);
+    vec3 le = env_eval(li, w, true, o, p_prev, pdf);
     pl = lights[li].pmf * pdf;
     return le;
   }

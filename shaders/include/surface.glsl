@@ -23,6 +23,8 @@ struct SurfacePoint {
   vec3 t1;
   vec3 t2;
   TexCtx tex;  // texture context (docs/textures-spec.md 1, 3); set when FEATURE_TEXTURES
+  vec3 dndu;   // shading-normal derivatives (textures-spec 3.2); set when FEATURE_TEXTURES
+  vec3 dndv;
 };
 
 // cross(a, b) spelled out and precise (no fma contraction), as the CPU computes it.
@@ -34,8 +36,10 @@ vec3 cross_exact(vec3 a, vec3 b) {
 // Parameterisation of triangle tri at barycentrics b (docs/materials-spec.md section 1.1,
 // docs/textures-spec.md 1; pbrt-v4 Triangle::InteractionFromIntersection): uv interpolated from
 // the mesh's per-vertex uv or (0,0), (1,0), (1,1) without them, and dpdu, dpdv, both zero when
-// |det| < 1e-9 (a degenerate uv map).
-void triangle_params(uint tri, vec3 b, out vec2 uv, out vec3 dpdu, out vec3 dpdv) {
+// |det| < 1e-9 (a degenerate uv map); with vertex normals, the shading-normal derivatives
+// dndu, dndv of textures-spec 3.2 (zero without).
+void triangle_params(uint tri, vec3 b, out vec2 uv, out vec3 dpdu, out vec3 dpdv, out vec3 dndu,
+                     out vec3 dndv) {
   Triangle T = triangles[tri];
   Vertex a = vertices[T.v0], bb = vertices[T.v1], c = vertices[T.v2];
   vec2 uv0 = vec2(0.0, 0.0), uv1 = vec2(1.0, 0.0), uv2 = vec2(1.0, 1.0);
@@ -51,7 +55,27 @@ void triangle_params(uint tri, vec3 b, out vec2 uv, out vec3 dpdu, out vec3 dpdv
   precise vec3 dp02 = a.p_u.xyz - c.p_u.xyz;
   precise vec3 dp12 = bb.p_u.xyz - c.p_u.xyz;
   precise float det = duv02.x * duv12.y - duv02.y * duv12.x;
-  if (abs(det) < 1e-9) {
+  bool degenerate = abs(det) < 1e-9;
+  dndu = vec3(0.0);
+  dndv = vec3(0.0);
+  if ((FEATURES & FEATURE_SHADING_NORMALS) != 0u && (meshes[T.mesh].flags & SHAPE_FLAG_HAS_NORMALS) != 0u) {
+    vec3 n0 = a.n_v.xyz, n1 = bb.n_v.xyz, n2 = c.n_v.xyz;
+    if (degenerate) {
+      // The Duff pair of the unnormalised dn (pbrt-v4 CoordinateSystem).
+      precise vec3 e20 = n2 - n0;
+      precise vec3 e10 = n1 - n0;
+      vec3 dn = cross_exact(e20, e10);
+      if (dn.x != 0.0 || dn.y != 0.0 || dn.z != 0.0) duff_frame(dn, dndu, dndv);
+    } else {
+      precise vec3 dn1 = n0 - n2;
+      precise vec3 dn2 = n1 - n2;
+      precise vec3 ddu = (duv12.y * dn1 - duv02.y * dn2) / det;
+      precise vec3 ddv = (duv02.x * dn2 - duv12.x * dn1) / det;
+      dndu = ddu;
+      dndv = ddv;
+    }
+  }
+  if (degenerate) {
     dpdu = vec3(0.0);
     dpdv = vec3(0.0);
     return;
@@ -165,9 +189,8 @@ vec3 sphere_normal(uint sph, vec3 n) {
 // Surface point of a closest hit (docs/path-spec.md section 4). Triangles: interpolated
 // position, b0 = 1 - b1 - b2. Spheres: o + t d re-projected onto the sphere (pbrt-v4 6.2.2).
 // With FEATURE_TEXTURES, also the texture context with its footprint (docs/textures-spec.md
-// 3): from the camera ray's differentials when has_diff, else approximated.
-SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, vec3 rx_o, vec3 rx_d, vec3 ry_o,
-                           vec3 ry_d) {
+// 3): from the ray's differentials rd when has_diff, else approximated; and dndu, dndv (3.2).
+SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
   SurfacePoint sp;
   sp.material = INVALID_INDEX;
   sp.light = INVALID_INDEX;
@@ -176,6 +199,8 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, vec3 rx_o, vec3 rx_d
   sp.ns = sp.ng;
   sp.m = 0.0;
   sp.tex = TexCtx(vec3(0.0), vec3(0.0, 0.0, 1.0), vec2(0.0), vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0);
+  sp.dndu = vec3(0.0);
+  sp.dndv = vec3(0.0);
   vec3 dpdu = vec3(0.0);
   vec3 dpdv = vec3(0.0);
   vec2 uv = vec2(0.0);
@@ -194,7 +219,15 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, vec3 rx_o, vec3 rx_d
       sp.material = spheres[sph].material;
       sp.light = spheres[sph].light;
       dpdu = sphere_dpdu(sph, sp.p);
-      if ((FEATURES & FEATURE_TEXTURES) != 0u) sphere_uv(sph, sp.p, uv, dpdv);
+      if ((FEATURES & FEATURE_TEXTURES) != 0u) {
+        sphere_uv(sph, sp.p, uv, dpdv);
+        // textures-spec 3.2: dpdu / (s r), not flipped with the normal.
+        precise float sr = spheres[sph].axis_x.w * cr.w;
+        precise vec3 ndu = dpdu / sr;
+        precise vec3 ndv = dpdv / sr;
+        sp.dndu = ndu;
+        sp.dndv = ndv;
+      }
     }
   } else if ((FEATURES & FEATURE_TRIANGLES) != 0u) {
     uint tri = hit.prim;
@@ -203,7 +236,8 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, vec3 rx_o, vec3 rx_d
     sp.material = m.material;
     sp.light = m.light_base == INVALID_INDEX ? INVALID_INDEX : m.light_base + (tri - m.tri_base);
     // uv and dpdv are dead (and folded away) without FEATURE_TEXTURES.
-    triangle_params(tri, vec3(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2), uv, dpdu, dpdv);
+    triangle_params(tri, vec3(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2), uv, dpdu, dpdv, sp.dndu,
+                    sp.dndv);
   }
   shading_frame(sp.ns, dpdu, sp.t1, sp.t2);
   if ((FEATURES & FEATURE_TEXTURES) != 0u) {
@@ -214,7 +248,7 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, vec3 rx_o, vec3 rx_d
     vec3 du = dpdu, dv = dpdv;
     vec3 cr = cross_exact(du, dv);
     if (cr.x == 0.0 && cr.y == 0.0 && cr.z == 0.0) duff_frame(sp.ng, du, dv);
-    compute_differentials(sp.tex, du, dv, has_diff, ray.o, ray.d, rx_o, rx_d, ry_o, ry_d);
+    compute_differentials(sp.tex, du, dv, has_diff, rd);
   }
   return sp;
 }

@@ -20,6 +20,14 @@ struct TexCtx {
   float dudx, dudy, dvdx, dvdy;
 };
 
+// A ray's differential rays (docs/textures-spec.md 3.1 says which rays carry them).
+struct RayDiff {
+  vec3 rx_o;
+  vec3 rx_d;
+  vec3 ry_o;
+  vec3 ry_d;
+};
+
 // m * (p, 1) summed left to right, uncontracted (as the CPU).
 vec3 tex_xform_point(mat4 m, vec3 p) {
   precise vec3 r = m[0].xyz * p.x + m[1].xyz * p.y + m[2].xyz * p.z + m[3].xyz;
@@ -490,11 +498,67 @@ bool tex_finite3(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
 // Clamp of a (u, v) differential to [-1e8, 1e8], 0 if not finite (pbrt-v4).
 float tex_clean(float x) { return (isnan(x) || isinf(x)) ? 0.0 : clamp(x, -1e8, 1e8); }
 
+// o + t d, uncontracted (the CPU's -ffp-contract=off).
+vec3 point_along(vec3 o, vec3 d, float t) {
+  precise vec3 p = o + t * d;
+  return p;
+}
+
+// pbrt-v4 RayDifferential::ScaleDifferentials (docs/textures-spec.md 3.1): the differential
+// rays of the ray (o, d) moved towards it by the factor s.
+RayDiff scale_differentials(RayDiff r, vec3 o, vec3 d, float s) {
+  precise vec3 rxo = o + (r.rx_o - o) * s;
+  precise vec3 ryo = o + (r.ry_o - o) * s;
+  precise vec3 rxd = d + (r.rx_d - d) * s;
+  precise vec3 ryd = d + (r.ry_d - d) * s;
+  return RayDiff(rxo, rxd, ryo, ryd);
+}
+
+// Differentials of the ray leaving a perfectly specular bounce (docs/textures-spec.md 3.1,
+// pbrt-v4 SurfaceInteraction::SpawnRay): c the hit's footprint, o the spawned ray's origin, ns
+// the shading normal with derivatives dndu, dndv, wo = -d of the incoming ray (differentials
+// r), wi the sampled world direction, transmission the sampled kind, eta its relative IOR.
+// False when pbrt-v4 drops them (a squared length above 1e16, or NaN).
+bool specular_differentials(TexCtx c, vec3 o, vec3 ns, vec3 dndu, vec3 dndv, vec3 wo, vec3 wi,
+                            bool transmission, float eta, inout RayDiff r) {
+  precise vec3 n = ns;
+  precise vec3 dndx = dndu * c.dudx + dndv * c.dvdx;
+  precise vec3 dndy = dndu * c.dudy + dndv * c.dvdy;
+  precise vec3 dwodx = -r.rx_d - wo;
+  precise vec3 dwody = -r.ry_d - wo;
+  precise vec3 rxo = o + c.dpdx;
+  precise vec3 ryo = o + c.dpdy;
+  if (transmission && dot_exact(wo, n) < 0.0) {
+    n = -n;
+    dndx = -dndx;
+    dndy = -dndy;
+  }
+  precise float dx = dot_exact(dwodx, n) + dot_exact(wo, dndx);
+  precise float dy = dot_exact(dwody, n) + dot_exact(wo, dndy);
+  float won = dot_exact(wo, n);
+  vec3 rxd, ryd;
+  if (!transmission) {
+    rxd = (wi - dwodx) + 2.0 * (won * dndx + dx * n);
+    ryd = (wi - dwody) + 2.0 * (won * dndy + dy * n);
+  } else {
+    float win = dot_exact(wi, n);
+    precise float mu = won / eta - abs(win);
+    precise float k = 1.0 / eta + (1.0 / (eta * eta)) * won / win;
+    precise float dmudx = dx * k;
+    precise float dmudy = dy * k;
+    rxd = (wi - eta * dwodx) + (mu * dndx + dmudx * n);
+    ryd = (wi - eta * dwody) + (mu * dndy + dmudy * n);
+  }
+  r = RayDiff(rxo, rxd, ryo, ryd);
+  // pbrt-v4 "squash potentially troublesome differentials" (NaN fails the test too).
+  return dot_exact(rxd, rxd) <= 1e16 && dot_exact(ryd, ryd) <= 1e16 &&
+         dot_exact(rxo, rxo) <= 1e16 && dot_exact(ryo, ryo) <= 1e16;
+}
+
 // Footprint of a hit (docs/textures-spec.md section 3, pbrt-v4
 // SurfaceInteraction::ComputeDifferentials): dpdx, dpdy and the (u, v) differentials of c
-// (p, n, uv set) from the camera ray's differentials when has_diff, else approximate_dp_dxy.
-void compute_differentials(inout TexCtx c, vec3 dpdu, vec3 dpdv, bool has_diff, vec3 ray_o,
-                           vec3 ray_d, vec3 rx_o, vec3 rx_d, vec3 ry_o, vec3 ry_d) {
+// (p, n, uv set) from the ray's differentials r when has_diff, else approximate_dp_dxy.
+void compute_differentials(inout TexCtx c, vec3 dpdu, vec3 dpdv, bool has_diff, RayDiff r) {
   c.dpdx = vec3(0.0);
   c.dpdy = vec3(0.0);
   c.dudx = 0.0;
@@ -504,12 +568,7 @@ void compute_differentials(inout TexCtx c, vec3 dpdu, vec3 dpdv, bool has_diff, 
   if ((globals.texture_opts.x & TEXOPT_DISABLE_FILTERING) != 0u) return;
   bool done = false;
   if (has_diff) {
-    // pbrt-v4 RayDifferential::ScaleDifferentials by max(1/8, 1/sqrt(spp)).
-    float sc = globals.min_dir_dx.w;
-    precise vec3 rxo = ray_o + (rx_o - ray_o) * sc;
-    precise vec3 rxd = ray_d + (rx_d - ray_d) * sc;
-    precise vec3 ryo = ray_o + (ry_o - ray_o) * sc;
-    precise vec3 ryd = ray_d + (ry_d - ray_d) * sc;
+    vec3 rxo = r.rx_o, rxd = r.rx_d, ryo = r.ry_o, ryd = r.ry_d;
     float ndx = dot_exact(c.n, rxd), ndy = dot_exact(c.n, ryd);
     if (ndx != 0.0 && ndy != 0.0) {
       float dd = -dot_exact(c.n, c.p);

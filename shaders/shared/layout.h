@@ -104,7 +104,8 @@ BASALT_CONST uint FEATURE2_TEX_PROCEDURAL = 1u << 2;   // bilerp, dots, directio
 BASALT_CONST uint FEATURE2_NOISE_SPLIT = 1u << 3;      // noise precision mode "split"
 BASALT_CONST uint FEATURE2_TEX_SHIRLEY = 1u << 4;      // Shirley's solid textures (extensions)
 BASALT_CONST uint FEATURE2_TEX_MAP_CURVED = 1u << 5;   // a spherical or cylindrical 2D mapping
-BASALT_CONST uint FEATURE2_COUNT = 6u;
+BASALT_CONST uint FEATURE2_ENV_PORTAL = 1u << 6;       // an environment map seen through a portal
+BASALT_CONST uint FEATURE2_COUNT = 7u;
 
 // ---- primitive references ------------------------------------------------------------
 // A BVH leaf covers prim_refs[a .. a+b). A ref is a triangle index, or a sphere index
@@ -338,7 +339,8 @@ struct Mesh {
 /// Sphere in world space (similarity transforms only); axes keep the object frame for (u,v).
 struct Sphere {
   vec4 center_radius;  // world centre xyz, world radius w
-  vec4 axis_x;         // object x, y, z axes in world space, unit length
+  vec4 axis_x;         // object x, y, z axes in world space, unit length; axis_x.w = the
+                       // object-to-world scale (docs/textures-spec.md 3.2)
   vec4 axis_y;
   vec4 axis_z;
   uint material;
@@ -447,8 +449,12 @@ BASALT_CONST uint PROBE_NOISE = 8u;
 BASALT_CONST uint PROBE_ENV = 9u;
 // PROBE_DIFFERENTIALS: texture context at the first hit of the camera ray of pixel
 // (key.z, key.w), sample floatBitsToUint(extra.x) (docs/textures-spec.md 3): key.y = 0: with
-// the camera ray's differentials (bounce 0); 1: as at a later bounce (Approximate_dp_dxy)
+// the camera ray's differentials (bounce 0); 1: as at a later bounce (Approximate_dp_dxy);
+// 2: at the hit of the ray perfectly reflected about the first hit's shading normal ns
+// (wi = 2 dot(wo, ns) ns - wo) carrying specular_differentials (3.1); 3: likewise refracted
+// with relative IOR extra.y (pbrt-v4 Refract; total internal reflection: no second ray)
 //   out: f0 = (dpdx, dudx), f1 = (dpdy, dudy), f2 = (uv, dvdx, dvdy), f3.xyz = p; u.x = prim
+//        (of the second hit for modes 2, 3: u.y = 1 when the second ray carried differentials)
 BASALT_CONST uint PROBE_DIFFERENTIALS = 10u;
 
 /// One probe query.

@@ -24,6 +24,23 @@ layout(std430, set = 0, binding = BINDING_PROBE_OUT) restrict writeonly buffer P
 // Closest hit as (t, b1, b2, 0); t = -1 for a miss.
 vec4 hit_record(Hit h) { return vec4(h.prim == INVALID_INDEX ? -1.0 : h.t, h.b1, h.b2, 0.0); }
 
+// The perfectly specular bounce of PROBE_DIFFERENTIALS modes 2, 3 (layout.h): wo reflected
+// about n, or refracted with relative IOR eta (pbrt-v4 Refract; eta becomes the etap used, 1
+// for a reflection); 0 on total internal reflection.
+vec3 probe_bounce(vec3 wo, vec3 n, bool refract, inout float eta) {
+  if (!refract) {
+    eta = 1.0;
+    float cos_i = dot_exact(wo, n);
+    precise vec3 w = 2.0 * cos_i * n - wo;
+    return w;
+  }
+  vec3 wt;
+  float etap;
+  if (!refract_v4(wo, n, eta, etap, wt)) return vec3(0.0);
+  eta = etap;
+  return wt;
+}
+
 void main() {
   uint i = gl_GlobalInvocationID.x;
   if (i >= pc.pixel_count) return;
@@ -47,7 +64,7 @@ void main() {
       r.f1 = vec4(-1.0, 0.0, 0.0, 0.0);
       r.u.y = INVALID_INDEX;
       if (h.prim != INVALID_INDEX) {
-        SurfacePoint sp = surface_point(ray, h, false, vec3(0.0), vec3(0.0), vec3(0.0), vec3(0.0));
+        SurfacePoint sp = surface_point(ray, h, false, RayDiff(vec3(0.0), vec3(0.0), vec3(0.0), vec3(0.0)));
         Hit h2 = intersect_closest(spawn_ray(sp.p, sp.ng, sp.m, q.extra.xyz));
         r.f1 = hit_record(h2);
         r.u.y = h2.prim;
@@ -134,16 +151,38 @@ void main() {
     case PROBE_DIFFERENTIALS: {
       // Texture context at the first hit of the camera ray of pixel (key.z, key.w), sample
       // floatBitsToUint(extra.x): key.y = 0 with the camera ray's differentials, 1 approximated.
+      // Modes 2, 3 (a perfectly specular bounce first) take a second pass of the loop; one
+      // surface_point call site.
       CameraRay cr = camera_ray(q.key.z, q.key.w, floatBitsToUint(q.extra.x));
       Ray cam = Ray(cr.o, FLT_MAX, cr.d);
-      Hit h = intersect_closest(cam);
-      r.u.x = h.prim;
-      if (h.prim != INVALID_INDEX) {
-        SurfacePoint sp = surface_point(cam, h, q.key.y == 0u, cr.rx_o, cr.rx_d, cr.ry_o, cr.ry_d);
-        r.f0 = vec4(sp.tex.dpdx, sp.tex.dudx);
-        r.f1 = vec4(sp.tex.dpdy, sp.tex.dudy);
-        r.f2 = vec4(sp.tex.uv, sp.tex.dvdx, sp.tex.dvdy);
-        r.f3 = vec4(sp.tex.p, 0.0);
+      RayDiff rd = scale_differentials(RayDiff(cr.rx_o, cr.rx_d, cr.ry_o, cr.ry_d), cr.o, cr.d,
+                                       globals.min_dir_dx.w);
+      bool has_diff = q.key.y != 1u;
+      uint passes = q.key.y >= 2u ? 2u : 1u;
+      [[dont_unroll]] for (uint k = 0u; k < passes; ++k) {
+        Hit h = intersect_closest(cam);
+        r.u.x = h.prim;
+        if (h.prim == INVALID_INDEX) break;
+        SurfacePoint sp = surface_point(cam, h, has_diff, rd);
+        if (k + 1u == passes) {
+          r.f0 = vec4(sp.tex.dpdx, sp.tex.dudx);
+          r.f1 = vec4(sp.tex.dpdy, sp.tex.dudy);
+          r.f2 = vec4(sp.tex.uv, sp.tex.dvdx, sp.tex.dvdy);
+          r.f3 = vec4(sp.tex.p, 0.0);
+          break;
+        }
+        // The bounce of layout.h PROBE_DIFFERENTIALS: reflection about ns, or pbrt-v4 Refract.
+        vec3 wo = -cr.d;
+        float eta = q.extra.y;
+        vec3 wi = probe_bounce(wo, sp.ns, q.key.y == 3u, eta);
+        if (wi.x == 0.0 && wi.y == 0.0 && wi.z == 0.0) {  // total internal reflection
+          r.u.x = INVALID_INDEX;
+          break;
+        }
+        cam = spawn_ray(sp.p, sp.ng, sp.m, wi);
+        has_diff = specular_differentials(sp.tex, cam.o, sp.ns, sp.dndu, sp.dndv, wo, wi,
+                                          q.key.y == 3u, eta, rd);
+        r.u.y = has_diff ? 1u : 0u;
       }
       break;
     }
@@ -152,15 +191,18 @@ void main() {
       // Le and the plain pdf (f0), the compensated pdf (f3.x), and a sample with u = extra.xy
       // of the PLAIN distribution (pbrt-v4 allowIncompletePDF = false; the render shader
       // samples the compensated one). A failed sample reports wi, pdf and Le as 0.
+      // The reference point (Le's ray origin, the pdf's and the sample's point) is
+      // (d.w, extra.z, extra.w); only portals read it.
       uint li = q.key.y;
-      r.f0.xyz = env_le(li, q.d.xyz);
+      vec3 ref = vec3(q.d.w, q.extra.zw);
+      r.f0.xyz = env_le(li, q.d.xyz, ref);
       [[dont_unroll]] for (uint k = 0u; k < 2u; ++k) {  // one env_pdf call site
-        float p = env_pdf(li, q.d.xyz, k == 1u);
+        float p = env_pdf(li, q.d.xyz, k == 1u, ref);
         if (k == 0u) r.f0.w = p; else r.f3.x = p;
       }
       vec3 env_wi, env_le_s;
       float env_p;
-      env_sample(li, q.extra.xy, false, env_wi, env_p, env_le_s);
+      env_sample(li, q.extra.xy, false, ref, env_wi, env_p, env_le_s);
       r.f1 = vec4(env_wi, env_p);
       r.f2 = vec4(env_le_s, 0.0);
       break;

@@ -66,7 +66,7 @@ struct TestScene {
   std::uint32_t sphere(glm::vec3 c, float r, std::uint32_t material, std::uint32_t flags = 0) {
     gpu::Sphere s{};
     s.center_radius = glm::vec4(c, r);
-    s.axis_x = glm::vec4(1, 0, 0, 0);
+    s.axis_x = glm::vec4(1, 0, 0, 1);  // w: object-to-world scale
     s.axis_y = glm::vec4(0, 1, 0, 0);
     s.axis_z = glm::vec4(0, 0, 1, 0);
     s.material = material;

@@ -769,9 +769,8 @@ TEST(ParserErrors, UnsupportedTypesAreNamed) {
             "t.pbrt:1:12: error: \"maxcomponentvalue\" is not supported (basalt does not clamp "
             "samples; remove it or set it to infinity)");
   EXPECT_EQ(error_of("WorldBegin\nLightSource \"infinite\" \"point3 portal\" "
-                     "[ 0 0 0  1 0 0  1 1 0  0 1 0 ]\n"),
-            "t.pbrt:2:24: error: portal infinite lights (parameter \"portal\") are not "
-            "supported yet");
+                     "[ 0 0 0  1 0 0  1 1 0 ]\n"),
+            "t.pbrt:2:24: error: expected 4 vertices for infinite light \"portal\" but given 3");
   EXPECT_EQ(error_of("WorldBegin\nLightSource \"point\" \"spectrum I\" \"stdillum-D65\"\n"),
             "t.pbrt:2:21: error: unknown named spectrum \"stdillum-D65\" for parameter \"I\" "
             "(basalt knows metal-Ag-eta, metal-Ag-k, metal-Al-eta, metal-Al-k, metal-Au-eta, "

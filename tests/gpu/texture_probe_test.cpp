@@ -379,10 +379,13 @@ TEST(TextureProbe, FootprintsGpuMatchCpu) {
   std::vector<gpu::ProbeIn> q;
   for (std::uint32_t y = 0; y < t.height(); ++y)
     for (std::uint32_t x = 0; x < t.width(); ++x)
-      for (std::uint32_t mode = 0; mode < 2; ++mode) {
+      for (std::uint32_t mode = 0; mode < 4; ++mode) {
+        // Modes 2, 3: the footprint after a perfectly specular reflection or refraction
+        // (eta 1.5) carrying specular_differentials (textures-spec 3.1).
         gpu::ProbeIn a{};
         a.key = glm::uvec4(gpu::PROBE_DIFFERENTIALS, mode, x, y);
         a.extra.x = bits(x * 7u + y);
+        a.extra.y = 1.5f;
         q.push_back(a);
       }
   const auto cpu = probe(Side::Cpu, t, q);
@@ -390,6 +393,7 @@ TEST(TextureProbe, FootprintsGpuMatchCpu) {
   std::size_t hits = 0, bad = 0;
   for (std::size_t i = 0; i < q.size(); ++i) {
     ASSERT_EQ(cpu[i].u.x, gpu[i].u.x);
+    ASSERT_EQ(cpu[i].u.y, gpu[i].u.y);  // modes 2, 3: the differentials survived on both
     if (cpu[i].u.x == gpu::INVALID_INDEX) continue;
     ++hits;
     for (int k = 0; k < 3; ++k) {
