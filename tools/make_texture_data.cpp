@@ -48,8 +48,11 @@ std::vector<std::uint16_t> rings16(int n) {
   return v;
 }
 
-/// Writes a 16-bit grey PNG (linear values; the scene says "encoding" "linear").
-void write_png16(const std::string& path, int n, const std::vector<std::uint16_t>& v) {
+/// Writes an n x n PNG of \p depth bits per sample and libpng colour type \p color_type, row
+/// by row: fill(y, row) writes row y's bytes (16-bit samples big-endian, as PNG stores them).
+template <typename Fill>
+void write_png_rows(const std::string& path, int n, int depth, int color_type, std::size_t row_bytes,
+                    Fill fill) {
   FILE* f = std::fopen(path.c_str(), "wb");
   if (!f) throw std::runtime_error("cannot write " + path);
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
@@ -59,21 +62,53 @@ void write_png16(const std::string& path, int n, const std::vector<std::uint16_t
     throw std::runtime_error("libpng failed on " + path);
   }
   png_init_io(png, f);
-  png_set_IHDR(png, info, n, n, 16, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE,
+  png_set_IHDR(png, info, n, n, depth, color_type, PNG_INTERLACE_NONE,
                PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_write_info(png, info);
-  std::vector<unsigned char> row(2 * std::size_t(n));
+  std::vector<unsigned char> row(row_bytes);
   for (int y = 0; y < n; ++y) {
-    for (int x = 0; x < n; ++x) {  // PNG stores 16-bit samples big-endian
-      const std::uint16_t s = v[std::size_t(y) * n + x];
-      row[2 * x] = (unsigned char)(s >> 8);
-      row[2 * x + 1] = (unsigned char)(s & 0xff);
-    }
+    fill(y, row.data());
     png_write_row(png, row.data());
   }
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
   std::fclose(f);
+}
+
+/// Writes a 16-bit grey PNG (linear values; the scene says "encoding" "linear").
+void write_png16(const std::string& path, int n, const std::vector<std::uint16_t>& v) {
+  write_png_rows(path, n, 16, PNG_COLOR_TYPE_GRAY, 2 * std::size_t(n), [&](int y, unsigned char* row) {
+    for (int x = 0; x < n; ++x) {
+      const std::uint16_t s = v[std::size_t(y) * n + x];
+      row[2 * x] = (unsigned char)(s >> 8);
+      row[2 * x + 1] = (unsigned char)(s & 0xff);
+    }
+  });
+}
+
+/// Tangent-space normal map, 64 x 64: a 4 x 4 grid of domes (each the normal of a sphere cap
+/// of height 0.35 over its 16 x 16 cell) with flat grooves between them; rgb = (n + 1) / 2.
+std::vector<glm::vec3> dome_normals(int n) {
+  std::vector<glm::vec3> v;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const float cx = (float(x % 16) + 0.5f) / 16.0f - 0.5f, cy = (float(y % 16) + 0.5f) / 16.0f - 0.5f;
+      const float r2 = (cx * cx + cy * cy) / (0.42f * 0.42f);
+      glm::vec3 nrm(0.0f, 0.0f, 1.0f);
+      if (r2 < 1.0f) nrm = glm::normalize(glm::vec3(0.8f * cx / 0.42f, -0.8f * cy / 0.42f, std::sqrt(1.0f - r2) + 0.2f));
+      v.push_back(0.5f * (nrm + glm::vec3(1.0f)));
+    }
+  return v;
+}
+
+/// Writes an 8-bit rgb PNG of linear values in [0, 1] (no sRGB curve: a normal map, which
+/// pbrt-v4 reads linear whatever the file type).
+void write_png8_linear(const std::string& path, int n, const std::vector<glm::vec3>& v) {
+  write_png_rows(path, n, 8, PNG_COLOR_TYPE_RGB, 3 * std::size_t(n), [&](int y, unsigned char* row) {
+    for (int x = 0; x < n * 3; ++x)
+      row[x] = (unsigned char)std::lround(
+          255.0f * std::fmin(1.0f, std::fmax(0.0f, v[std::size_t(y) * n + x / 3][x % 3])));
+  });
 }
 
 /// Environment map, 64 x 64 equal-area octahedral square (pbrt-v4's layout; the pattern is
@@ -143,6 +178,7 @@ int main(int argc, char** argv) {
     basalt::write_image(dir + "/tex-ramp.exr", hdr_ramp());
     basalt::write_image(dir + "/env-sky.exr", sky());
     basalt::write_image(dir + "/env-latlong.exr", sky_latlong());
+    write_png8_linear(dir + "/normal-domes.png", 64, dome_normals(64));
   } catch (const std::exception& e) {
     std::fprintf(stderr, "basalt_make_texture_data: %s\n", e.what());
     return 1;

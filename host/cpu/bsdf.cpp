@@ -7,6 +7,7 @@
 #include <bit>
 #include <cmath>
 
+#include "cpu/bump.h"
 #include "cpu/bxdfs.h"
 #include "cpu/microfacet.h"
 #include "cpu/rng.h"
@@ -325,7 +326,7 @@ std::uint32_t resolve_mix(const SceneTables& scene, std::uint32_t material, cons
   }
 }
 
-Bsdf bsdf_at(const SceneTables& scene, std::uint32_t material, const SurfacePoint& sp,
+Bsdf bsdf_at(const SceneTables& scene, std::uint32_t material, SurfacePoint& sp,
              glm::vec3 wo_world) {
   Bsdf b;
   b.scene = &scene;
@@ -336,6 +337,9 @@ Bsdf bsdf_at(const SceneTables& scene, std::uint32_t material, const SurfacePoin
     b.interface = true;
     return b;
   }
+  // docs/bump-spec.md 6: the resolved material's normal or bump map sets the shading normal
+  // and frame (pbrt-v4 GetBSDF, after ChooseMaterial); a no-op without MATFLAG_BUMP/NORMALMAP.
+  bump_shading(scene, m, sp);
   if (m.type == gpu::MATERIAL_MIX_WEIGHTED) {
     // pbrt-v2/v3 MixMaterial: lobes of aux0 x (1 - amount), then aux1 x amount.
     const glm::vec3 amount = glm::clamp(slot_value(m, gpu::SLOT_MIX_AMOUNT, sp), 0.0f, 1.0f);

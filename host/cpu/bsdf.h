@@ -63,10 +63,12 @@ std::uint32_t resolve_mix(const SceneTables& scene, std::uint32_t material, cons
                           glm::vec3 wo_world);
 
 /// \brief The BSDF of material index `material` at sp seen from wo_world (= -ray direction):
-///        resolves stochastic mixes (section 4) and builds the lobes of section 3 (roughness
+///        resolves stochastic mixes (section 4), applies the resolved material's bump or
+///        normal map to sp's shading normal and frame (docs/bump-spec.md 6: bump_shading,
+///        which everything after the BSDF uses) and builds the lobes of section 3 (roughness
 ///        of 1.4). An invalid index or MATERIAL_NONE gives no lobes (black); MATERIAL_INTERFACE
 ///        gives no lobes and interface = true.
-Bsdf bsdf_at(const SceneTables& scene, std::uint32_t material, const SurfacePoint& sp,
+Bsdf bsdf_at(const SceneTables& scene, std::uint32_t material, SurfacePoint& sp,
              glm::vec3 wo_world);
 
 /// \brief Union of the lobes' flags (BSDF_REFLECTION/TRANSMISSION x DIFFUSE/GLOSSY/SPECULAR).

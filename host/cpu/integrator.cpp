@@ -83,7 +83,8 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
       break;
     }
     // The footprint from the ray's differentials, else approximated (textures-spec 3).
-    const SurfacePoint sp = surface_point(scene, ray, hit, has_diff ? &diff : nullptr);
+    // Not const: bsdf_at applies a bump or normal map to its shading normal and frame.
+    SurfacePoint sp = surface_point(scene, ray, hit, has_diff ? &diff : nullptr);
     // Emission of an area light, MIS-weighted against light sampling from the previous vertex.
     if (sp.light < scene.lights.size()) {
       const gpu::Light& light = scene.lights[sp.light];
@@ -98,7 +99,8 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
         }
       }
     }
-    // The BSDF (stochastic mixes resolved at the hit, docs/materials-spec.md section 4).
+    // The BSDF (stochastic mixes resolved at the hit, docs/materials-spec.md section 4), and
+    // from here on the bumped shading normal and frame (docs/bump-spec.md 6).
     const Bsdf bsdf = bsdf_at(scene, sp.material, sp, -ray.d);
     if (bsdf.interface) {
       // materials-spec section 5 (pbrt-v4 PathIntegrator: no BSDF -> SkipIntersection): the

@@ -5,6 +5,7 @@
 #include <cfloat>
 
 #include "cpu/bsdf.h"
+#include "cpu/bump.h"
 #include "cpu/bxdfs.h"
 #include "cpu/camera.h"
 #include "cpu/envmap.h"
@@ -180,6 +181,31 @@ std::vector<gpu::ProbeOut> probe(const SceneTables& scene, const std::vector<gpu
           o.f2 = glm::vec4(sp.tex.uv, sp.tex.dvdx, sp.tex.dvdy);
           o.f3 = glm::vec4(sp.tex.p, 0.0f);
         }
+        break;
+      }
+      case gpu::PROBE_BUMP: {
+        // bump_shading at the first hit of the camera ray of pixel (key.z, key.w), sample
+        // bits(extra.x), with the camera ray's differentials as the path tracer has them, for
+        // the material after mix resolution (wo = -d) (layout.h PROBE_BUMP).
+        const CameraRay c = camera_ray_differential(scene, q.key.z, q.key.w,
+                                                    std::bit_cast<std::uint32_t>(q.extra.x));
+        const Ray cam{c.o, c.d, FLT_MAX};
+        RayDifferential diff{c.rx_o, c.rx_d, c.ry_o, c.ry_d};
+        scale_differentials(diff, c.o, c.d, scene.globals.min_dir_dx.w);
+        const Hit h = intersect_closest(scene, cam);
+        o.u.x = h.prim;
+        if (!h.valid()) break;
+        SurfacePoint sp = surface_point(scene, cam, h, &diff);
+        glm::vec3 dpdu = sp.sdpdu, dpdv = sp.sdpdv;
+        bool changed = false;
+        const std::uint32_t idx = resolve_mix(scene, sp.material, sp, -c.d);
+        if (idx != gpu::INVALID_INDEX)
+          changed = bump_shading(scene, scene.materials[idx], sp, &dpdu, &dpdv);
+        o.f0 = glm::vec4(sp.g.ns, 0.0f);
+        o.f1 = glm::vec4(dpdu, 0.0f);
+        o.f2 = glm::vec4(dpdv, 0.0f);
+        o.f3 = glm::vec4(sp.frame.t1, 0.0f);
+        o.u.y = changed ? 1u : 0u;
         break;
       }
       default:

@@ -158,6 +158,25 @@ SurfacePoint surface_point(const SceneTables& scene, const Ray& ray, const Hit& 
       dv = f.t2;
     }
     compute_differentials(scene, sp.tex, du, dv, diff);
+    // docs/bump-spec.md 3: the shading pair is (du, dv), except on triangles with vertex
+    // normals (pbrt-v4 Triangle::InteractionFromIntersection: ss = dpdu, ts = cross(ns, ss),
+    // ss = cross(ts, ns), or the Duff pair of ns when ts is zero).
+    sp.sdpdu = du;
+    sp.sdpdv = dv;
+    if (!(hit.prim & gpu::PRIM_SPHERE_BIT)) {
+      const std::uint32_t mi = scene.triangles[hit.prim].mesh;
+      if (mi < scene.meshes.size() && (scene.meshes[mi].flags & gpu::SHAPE_FLAG_HAS_NORMALS)) {
+        const glm::vec3 ts = glm::cross(sp.g.ns, du);
+        if (glm::dot(ts, ts) > 0.0f) {
+          sp.sdpdu = glm::cross(ts, sp.g.ns);
+          sp.sdpdv = ts;
+        } else {
+          const Frame f = Frame::from_z(sp.g.ns);
+          sp.sdpdu = f.t1;
+          sp.sdpdv = f.t2;
+        }
+      }
+    }
   }
   return sp;
 }

@@ -32,6 +32,9 @@ struct SurfacePoint {
   std::uint32_t light = gpu::INVALID_INDEX;   // area light of the primitive, if emissive
   const SceneTables* scene = nullptr;  // for texture lookups (slot_value)
   TextureContext tex;                  // texture context (docs/textures-spec.md 1, 3)
+  // The shading pair (sdpdu, sdpdv) a bump or normal map starts from (docs/bump-spec.md 3);
+  // set with the texture context, zero without one.
+  glm::vec3 sdpdu{0.0f}, sdpdv{0.0f};
 };
 
 /// \brief Point of triangle tri at barycentrics (b0, b1, b2): interpolated position, ng from

@@ -369,12 +369,6 @@ std::uint32_t material_max_lobes(std::uint32_t tag) {
 
 Material parse_material(const std::string& type_in, const ParamSet& ps, const SourceLoc& loc,
                         const SourceLoc& type_loc, const std::string& what, MaterialContext& ctx) {
-  // Refused parameters that would change the image (nothing is silently replaced).
-  if (const Param* p = ps.find("normalmap")) throw SceneError(p->loc, "normal maps are not supported yet");
-  if (const Param* p = ps.find("displacement"))
-    throw SceneError(p->loc, "displacement is not supported yet");
-  if (const Param* p = ps.find("bumpmap")) throw SceneError(p->loc, "bump maps are not supported yet");
-
   std::string type = type_in;
   if (type.empty() || type == "none") {
     // pbrt-v4 Material::Create: deprecated spellings of "interface".
@@ -594,6 +588,24 @@ Material parse_material(const std::string& type_in, const ParamSet& ps, const So
     check_range(m, key, 0.0f, INFINITY, "must not be negative");
   check_range(m, "g", -1.0f, 1.0f, "must be in [-1, 1]");
   m.flags = flags;
+  // docs/bump-spec.md 1: pbrt-v4 "displacement" (pbrt-v3 "bumpmap") and "normalmap", on every
+  // material but mix and interface.
+  for (const char* name : {"displacement", "bumpmap", "normalmap"}) {
+    const Param* p = ps.find(name);
+    if (!p) continue;
+    if (kind->tag == MATERIAL_MIX || kind->tag == MATERIAL_INTERFACE)
+      throw SceneError(p->loc, "a '" + type + "' material takes no " + pname(name));
+    if (std::string(name) == "normalmap") {
+      const std::string file = ps.get_string("normalmap", "");
+      if (file.empty()) throw SceneError(p->loc, pname(name) + " is empty");
+      m.normal_map = ctx.resolve ? ctx.resolve(file) : file;
+      m.normal_map_loc = p->loc;
+    } else {
+      if (m.params.count("displacement"))
+        throw SceneError(p->loc, "both \"displacement\" and \"bumpmap\" are given");
+      read_float(ps, name, "displacement", 0.0f, loc, m);
+    }
+  }
   if (ctx.warnings) ps.report_unused(what, *ctx.warnings);
   return m;
 }
@@ -703,6 +715,21 @@ std::vector<gpu::Material> convert_materials(const Scene& scene, MixMode mode,
                            "parameter \"" + std::string(s.key) + "\" is not finite");
       }
       g.value[s.slot] = glm::vec4(v, 0.0f);
+    }
+    // docs/bump-spec.md 2: the displacement slot and the normal map's level.
+    // A normal map wins over a displacement (pbrt-v4 GetBSDF), which is then not stored.
+    if (auto it = m.params.find("displacement");
+        it != m.params.end() && m.normal_map_image < 0) {
+      const MaterialParam& p = it->second;
+      g.flags |= gpu::MATFLAG_BUMP;
+      g.value[gpu::SLOT_DISPLACEMENT] = glm::vec4(glm::vec3(p.value.empty() ? 0.0f : p.value[0]), 0.0f);
+      if (!p.texture.empty())
+        g.texture[gpu::SLOT_DISPLACEMENT / 4][gpu::SLOT_DISPLACEMENT % 4] =
+            texture_index(m, "displacement", p, false, tb);
+    }
+    if (m.normal_map_image >= 0) {
+      g.flags |= gpu::MATFLAG_NORMALMAP;
+      g.value[gpu::SLOT_NORMALMAP] = glm::vec4(float(tb.image_level(m.normal_map_image)), 0.0f, 0.0f, 0.0f);
     }
     switch (g.type) {
       case MATERIAL_COATED_DIFFUSE:

@@ -648,7 +648,8 @@ void Parser::texture(Tokenizer& tok, const Token& d, const std::string& dir) {
   scene_.textures.push_back(std::move(t));
 }
 
-// Option "name" value (pbrt-v4 BasicSceneBuilder::Option); only "seed" affects basalt.
+// Option "name" value (pbrt-v4 BasicSceneBuilder::Option); "seed", "disabletexturefiltering"
+// and "displacementedgescale" affect basalt.
 void Parser::option(Tokenizer& tok, const Token& d) {
   std::string decl = string_arg(tok, d, "an option name");
   std::optional<Token> v = tok.next();
@@ -661,7 +662,6 @@ void Parser::option(Tokenizer& tok, const Token& d) {
   std::string nn = normalize_option(name);
   static const char* known[] = {"disablepixeljitter",
                                 "disablewavelengthjitter",
-                                "displacementedgescale",
                                 "msereferenceimage",
                                 "msereferenceout",
                                 "forcediffuse",
@@ -673,6 +673,19 @@ void Parser::option(Tokenizer& tok, const Token& d) {
       throw SceneError(v->loc, "Option \"disabletexturefiltering\" expects true or false, got " +
                                    v->describe());
     scene_.disable_texture_filtering = v->text == "true";
+  } else if (nn == "displacementedgescale") {
+    // pbrt-v4 BasicSceneBuilder::Option (Atof of the value): Shape::Create multiplies every
+    // displaced plymesh's "edgelength" by it, wherever the Option stands in the file. pbrt-v4
+    // does not check it; a value <= 0 would refine forever, so it is refused here.
+    if (v->kind != Token::Kind::Number)
+      throw SceneError(v->loc, "Option \"displacementedgescale\" expects a number, got " +
+                                   v->describe());
+    const float scale = float(v->number);
+    if (!(scale > 0.0f) || !std::isfinite(scale))
+      throw SceneError(v->loc,
+                       "Option \"displacementedgescale\" must be positive and finite, got " +
+                           v->describe());
+    scene_.displacement_edge_scale = scale;
   } else if (nn == "seed") {
     if (!v->is_integer_literal())
       throw SceneError(v->loc, "Option \"seed\" expects an integer, got " + v->describe());
@@ -689,7 +702,14 @@ void Parser::option(Tokenizer& tok, const Token& d) {
 void Parser::shape(Tokenizer& tok, const Token& d, const std::string& dir) {
   verify_world(d);
   std::string type = string_arg(tok, d, "a shape type");
-  ParamSet ps = params(tok);
+  // Texture-valued parameters: only a mesh's "displacement" (below); others are refused as
+  // params() refuses them.
+  ParamSet ps = parse_param_list(tok);
+  for (const Param& p : ps.params)
+    if (p.type == "texture" &&
+        !(p.name == "displacement" && (type == "plymesh" || type == "trianglemesh")))
+      throw SceneError(p.loc, "textures are not supported yet (parameter \"" + p.name +
+                                  "\" refers to texture \"" + p.strings[0] + "\")");
   Shape s;
   s.loc = d.loc;
   s.world_from_object = gs_.ctm;
@@ -711,6 +731,9 @@ void Parser::shape(Tokenizer& tok, const Token& d, const std::string& dir) {
                                                                       : nullptr;
     if (partial) throw SceneError(ps.loc_of(partial, d.loc), "partial spheres not supported");
   } else if (type == "trianglemesh") {
+    // "displacement" and "edgelength" are not looked up: pbrt-v4 displaces plymesh shapes
+    // only (Triangle::CreateMesh never reads them), so they are reported as unused parameters
+    // (pbrt-v4 ReportUnused; a warning in basalt as every unused parameter) and ignored.
     s.kind = Shape::Kind::Triangles;
     TriangleMesh& m = s.mesh;
     m.P = ps.get_point3s("P");
@@ -762,6 +785,26 @@ void Parser::shape(Tokenizer& tok, const Token& d, const std::string& dir) {
       throw SceneError(d.loc, "PLY file \"" + path + "\": " + e.message);
     }
     for (const std::string& w : ply_warnings) warn(d.loc, "PLY file \"" + path + "\": " + w);
+    // pbrt-v4 Shape::Create "plymesh": "edgelength" (1; times Option "displacementedgescale")
+    // and "texture displacement" (an empty name: no displacement, as pbrt-v4). build_tables
+    // refines and displaces the mesh (host/scene/displace.h); the texture name is resolved in
+    // finish(), since pbrt-v4 creates shapes after every texture of the file.
+    s.edge_length = ps.get_float("edgelength", 1.0f);
+    s.edge_length_loc = ps.loc_of("edgelength", d.loc);
+    if (const Param* p = ps.lookup("displacement", {"texture"}); p && !p->strings[0].empty()) {
+      s.displacement = p->strings[0];
+      s.displacement_loc = p->loc;
+      // pbrt-v4 does not check edgelength; <= 0 (or NaN) would refine forever.
+      if (!(s.edge_length > 0.0f) || !std::isfinite(s.edge_length))
+        throw SceneError(s.edge_length_loc,
+                         "plymesh \"edgelength\" must be positive and finite with a "
+                         "\"displacement\" texture, got " + std::to_string(s.edge_length));
+      // pbrt-v4 TriQuadMesh::Displace: "Vertex uvs are currently required by Displace()".
+      if (s.mesh.uv.empty())
+        throw SceneError(p->loc, "plymesh \"displacement\" needs vertex uvs, but PLY file \"" +
+                                     path + "\" has none (u v, s t, texture_u texture_v or "
+                                     "texture_s texture_t)");
+    }
   } else {
     throw SceneError(d.loc, "shape '" + type + "' is not supported yet");
   }
@@ -1040,7 +1083,24 @@ Material Parser::make_material(const std::string& type, const ParamSet& ps, cons
   ctx.warnings = &scene_.warnings;
   ctx.measured = &scene_.measured;
   ctx.resolve = [this, dir](const std::string& name) { return resolve(name, dir); };
-  return parse_material(type, ps, loc, type_loc, what, ctx);
+  Material m = parse_material(type, ps, loc, type_loc, what, ctx);
+  if (!m.normal_map.empty()) {
+    // docs/bump-spec.md 1: read linear whatever the file type (pbrt-v4 Image::Read with
+    // ColorEncoding::Linear), decoded once per file as image textures are; R, G, B needed.
+    TextureDef t;
+    t.tag = gpu::TEXTURE_IMAGEMAP;
+    t.image_file = m.normal_map;
+    t.image_encoding = ColorEncoding{ImageEncoding::Linear};
+    t.image_loc = m.normal_map_loc;
+    load_texture_image(scene_, t);
+    const DecodedImage& im = scene_.images[std::size_t(t.image)];
+    if (im.channels != 3)
+      throw SceneError(m.normal_map_loc, "\"" + m.normal_map +
+                                             "\": a normal map needs R, G and B channels, it has " +
+                                             std::to_string(im.channels));
+    m.normal_map_image = t.image;
+  }
+  return m;
 }
 
 // End of input: unclosed scopes, named materials, emptiness, and values that depend on
@@ -1053,6 +1113,21 @@ Scene Parser::finish(const SourceLoc& eof) {
     if (it == named_materials_.end())
       throw SceneError(p.loc, "named material \"" + p.name + "\" is not defined");
     scene_.shapes[p.shape].material = it->second;
+  }
+  // Displacement textures of plymesh shapes: pbrt-v4 looks them up among all float textures
+  // when it creates the shapes, after the whole file (so one defined later is found).
+  for (const Shape& s : scene_.shapes) {
+    if (s.displacement.empty()) continue;
+    bool is_float = false, is_spectrum = false;
+    for (const TextureDef& t : scene_.textures)
+      if (t.name == s.displacement) (t.is_float ? is_float : is_spectrum) = true;
+    if (!is_float)
+      throw SceneError(s.displacement_loc,
+                       is_spectrum ? "displacement texture \"" + s.displacement +
+                                         "\" is a spectrum texture; displacement needs a float "
+                                         "texture"
+                                   : "displacement texture \"" + s.displacement +
+                                         "\": no such float texture defined");
   }
   // Mix materials name named materials, resolved at the end as pbrt-v4 does.
   for (Material& m : scene_.materials) {

@@ -126,6 +126,11 @@ struct Material {
   int measured = -1;      // measured: index into Scene::measured
   int max_depth = 10;     // coated*: pbrt-v4 LayeredBxDF maxdepth
   int n_samples = 1;      // coated*: nsamples
+  // "normalmap" (docs/bump-spec.md 1): resolved file, its location, and the decoded image
+  // (Scene::images index, read linear) set by the parser.
+  std::string normal_map;
+  SourceLoc normal_map_loc;
+  int normal_map_image = -1;
 };
 
 /// A tabulated BRDF in pbrt-v2's MERL regular half-angle layout (host/scene/merl.h).
@@ -158,6 +163,13 @@ struct Shape {
   float radius = 1.0f;  // sphere
   TriangleMesh mesh;    // triangles
   SourceLoc loc;
+  // plymesh "texture displacement" (pbrt-v4 Shape::Create "plymesh"; host/scene/displace.h):
+  // the float texture's name (empty: none) and its parameter's location, and "edgelength"
+  // (world space; Scene::displacement_edge_scale not yet applied) with its location.
+  std::string displacement;
+  SourceLoc displacement_loc;
+  float edge_length = 1.0f;
+  SourceLoc edge_length_loc;
 };
 
 /// Point, spot, distant, uniform infinite and image infinite lights, in world space.
@@ -201,6 +213,7 @@ struct Scene {
   std::vector<DecodedImage> images;     // each (file, encoding) once; TextureDef::image
   std::map<std::string, int> image_index;  // image_key(file, encoding) -> images index
   bool disable_texture_filtering = false;  // Option "disabletexturefiltering"
+  float displacement_edge_scale = 1.0f;    // Option "displacementedgescale" (> 0)
   MixMode mix_mode = MixMode::Auto;     // set by the caller (--mix) before build_tables
   std::vector<std::string> warnings;  // "file:line:column: warning: ..."
 };

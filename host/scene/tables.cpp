@@ -6,9 +6,11 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <numbers>
 
 #include "accel/bvh.h"
+#include "scene/displace.h"
 #include "scene/materials.h"
 #include "scene/textures.h"
 
@@ -535,6 +537,7 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
 
   // ---- shapes: triangles and spheres in world space, area lights --------------------------
   std::vector<Aabb> tri_bounds, sphere_bounds;
+  std::unique_ptr<DisplacementTextures> displacement_textures;  // made on first use
   for (const Shape& shape : scene.shapes) {
     const std::uint32_t material = material_of(shape);
     const bool emissive = shape.area_light.has_value();
@@ -577,7 +580,15 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
 
     // Triangle mesh (pbrt-v4 TriangleMesh: positions and normals transformed to world space,
     // normals negated for ReverseOrientation).
-    const TriangleMesh& tm = shape.mesh;
+    // A plymesh with a "displacement" texture is refined and displaced first (pbrt-v4
+    // Shape::Create "plymesh"; host/scene/displace.h), in object space.
+    TriangleMesh displaced;
+    if (!shape.displacement.empty()) {
+      if (!displacement_textures)
+        displacement_textures = std::make_unique<DisplacementTextures>(scene);
+      displaced = displaced_shape_mesh(scene, shape, *displacement_textures);
+    }
+    const TriangleMesh& tm = shape.displacement.empty() ? shape.mesh : displaced;
     if (tm.indices.size() % 3 != 0)
       throw SceneError(shape.loc, "triangle indices are not a multiple of 3");
     if (!tm.N.empty() && tm.N.size() != tm.P.size())
@@ -771,12 +782,29 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
     if (m.type == gpu::MATERIAL_MIX || m.type == gpu::MATERIAL_MIX_WEIGHTED) {
       todo.push_back(m.aux0);
       todo.push_back(m.aux1);
+      // docs/bump-spec.md 1: one shading frame per hit cannot bump a weighted mix's children
+      // separately, as pbrt-v3 does.
+      for (std::uint32_t c : {m.aux0, m.aux1})
+        if (m.type == gpu::MATERIAL_MIX_WEIGHTED && c < t.materials.size() &&
+            (t.materials[c].flags & (gpu::MATFLAG_BUMP | gpu::MATFLAG_NORMALMAP)) &&
+            c < scene.materials.size())
+          throw SceneError(scene.materials[c].loc,
+                           "a bump or normal map on a child of a pbrt-v3 weighted mix is not "
+                           "supported (pbrt-v3 bumps each child in its own frame)");
     }
   }
   for (std::size_t mi = 0; mi < t.materials.size(); ++mi) {
     if (!reached[mi]) continue;
     const gpu::Material& m = t.materials[mi];
     t.features |= material_feature(m.type);
+    // docs/bump-spec.md 2: bump and normal maps need the texture context and its footprint.
+    if (m.flags & gpu::MATFLAG_NORMALMAP) {
+      t.features |= gpu::FEATURE_TEXTURES;
+      t.features2 |= gpu::FEATURE2_NORMALMAP;
+    } else if (m.flags & gpu::MATFLAG_BUMP) {
+      t.features |= gpu::FEATURE_TEXTURES;
+      t.features2 |= gpu::FEATURE2_BUMP;
+    }
     for (std::uint32_t slot = 0; slot < gpu::MATERIAL_SLOTS; ++slot) {
       const std::uint32_t root = m.texture[slot / 4][slot % 4];
       if (root == INVALID_INDEX) continue;

@@ -543,32 +543,40 @@ std::uint32_t TextureProgramBuilder::pyramid(const TextureDef& t, std::uint32_t&
 
 // The one MipLevel of an interpimage (its decoded image as stored, once per image) or of a
 // volume (its voxels: width nx, height ny * nz; once per texture definition).
+std::uint32_t TextureProgramBuilder::append_level(int w, int h, int ch,
+                                                  const std::vector<float>& v) {
+  gpu::MipLevel l{};
+  l.offset = std::uint32_t(texels_->size());
+  l.width = std::uint32_t(w);
+  l.height = std::uint32_t(h);
+  l.channels = std::uint32_t(ch);
+  mip_levels_->push_back(l);
+  texels_->insert(texels_->end(), v.begin(), v.end());
+  return std::uint32_t(mip_levels_->size() - 1);
+}
+
+std::uint32_t TextureProgramBuilder::image_level(int image) {
+  if (!mip_levels_ || !texels_) return INVALID_INDEX;
+  if (image < 0 || std::size_t(image) >= scene_.images.size()) return INVALID_INDEX;
+  auto it = single_levels_.find(image);
+  if (it == single_levels_.end()) {
+    const DecodedImage& im = scene_.images[std::size_t(image)];
+    it = single_levels_.emplace(image, append_level(im.width, im.height, im.channels, im.texels))
+             .first;
+  }
+  return it->second;
+}
+
 std::uint32_t TextureProgramBuilder::single_level(const TextureDef& t) {
   if (!mip_levels_ || !texels_) return INVALID_INDEX;
-  auto append = [&](int w, int h, int ch, const std::vector<float>& v) {
-    gpu::MipLevel l{};
-    l.offset = std::uint32_t(texels_->size());
-    l.width = std::uint32_t(w);
-    l.height = std::uint32_t(h);
-    l.channels = std::uint32_t(ch);
-    mip_levels_->push_back(l);
-    texels_->insert(texels_->end(), v.begin(), v.end());
-    return std::uint32_t(mip_levels_->size() - 1);
-  };
   if (t.tag == gpu::TEXTURE_VOLUME) {
     auto it = volumes_.find(&t);
     if (it == volumes_.end())
-      it = volumes_.emplace(&t, append(int(t.ip.y), int(t.ip.z * t.ip.w), t.is_float ? 1 : 3,
-                                       t.voxels)).first;
+      it = volumes_.emplace(&t, append_level(int(t.ip.y), int(t.ip.z * t.ip.w),
+                                             t.is_float ? 1 : 3, t.voxels)).first;
     return it->second;
   }
-  if (t.image < 0 || std::size_t(t.image) >= scene_.images.size()) return INVALID_INDEX;
-  auto it = single_levels_.find(t.image);
-  if (it == single_levels_.end()) {
-    const DecodedImage& im = scene_.images[std::size_t(t.image)];
-    it = single_levels_.emplace(t.image, append(im.width, im.height, im.channels, im.texels)).first;
-  }
-  return it->second;
+  return image_level(t.image);
 }
 
 std::uint32_t TextureProgramBuilder::emit(const TextureDef& t, int depth, int& stack,

@@ -49,6 +49,10 @@ class TextureProgramBuilder {
   /// \throws SceneError at \p loc if there is no such texture of that type.
   std::uint32_t program(const std::string& name, bool rgb, const SourceLoc& loc,
                         bool albedo = false);
+  /// \brief The MipLevel holding decoded image \p image (Scene::images) at full resolution, no
+  ///        pyramid (a normal map, docs/bump-spec.md 2), built once; INVALID_INDEX without
+  ///        image tables.
+  std::uint32_t image_level(int image);
 
  private:
   const TextureDef& find(const std::string& name, bool is_float, const SourceLoc& loc) const;
@@ -56,6 +60,7 @@ class TextureProgramBuilder {
   std::uint32_t emit_constant(glm::vec3 v, bool is_float);
   std::uint32_t pyramid(const TextureDef& t, std::uint32_t& levels);
   std::uint32_t single_level(const TextureDef& t);  // interpimage, volume: one MipLevel
+  std::uint32_t append_level(int w, int h, int channels, const std::vector<float>& texels);
   const Scene& scene_;
   std::vector<gpu::Texture>* table_;
   std::vector<gpu::Texture> scratch_;

@@ -13,6 +13,7 @@
 #include "fresnel.glsl"
 #include "lobes.glsl"
 #include "layered.glsl"
+#include "bump.glsl"
 
 // The lean variant of the render shader (render_lean.spv, compiled with
 // -DBASALT_LEAN_MATERIALS=1; the host picks it when the scene's only material feature is
@@ -64,17 +65,38 @@ struct Bsdf {
 // material table directly and slot_cache is dead.
 vec4 slot_cache[MATERIAL_SLOTS];
 
+// The displacement of a bump-mapped material (docs/bump-spec.md 4.3) at the shifted contexts
+// cu (x) and cv (y), set by slots_resolve next to slot_cache[SLOT_DISPLACEMENT] (at the hit).
+vec2 bump_disp_uv;
+
 // Evaluates every slot of material m at sp into slot_cache: the constant, or the value of the
 // slot's texture program in the hit's context (docs/textures-spec.md 2; a float program holds
-// its value in x, y and z alike).
+// its value in x, y and z alike). A material to bump (bump_wanted) takes two more iterations:
+// its displacement slot at the shifted contexts cu and cv of bump-spec 4.2, into bump_disp_uv,
+// so that the texture interpreter keeps its one call site.
 void slots_resolve(uint m, SurfacePoint sp) {
   if ((FEATURES & FEATURE_TEXTURES) == 0u) return;
-  [[dont_unroll]] for (uint s = 0u; s < MATERIAL_SLOTS; ++s) {
-    uint tex = materials[m].texture[s / 4u][s % 4u];
-    slot_cache[s] = tex != INVALID_INDEX ? vec4(tex_eval_rgb(tex, sp.tex), 0.0)
-                                         : materials[m].value[s];
+  uint n = MATERIAL_SLOTS;
+  if (BUMP_ENABLED && bump_wanted(materials[m].flags)) n += 2u;
+  [[dont_unroll]] for (uint s = 0u; s < n; ++s) {
+    bool shifted = BUMP_ENABLED && s >= MATERIAL_SLOTS;
+    uint slot = shifted ? SLOT_DISPLACEMENT : s;
+    TexCtx c = sp.tex;
+    if (shifted) c = bump_shifted_ctx(sp, s - MATERIAL_SLOTS);
+    uint tex = materials[m].texture[slot / 4u][slot % 4u];
+    vec4 v = tex != INVALID_INDEX ? vec4(tex_eval_rgb(tex, c), 0.0) : materials[m].value[slot];
+    if (!shifted) slot_cache[s] = v;
+    else if (s == MATERIAL_SLOTS) bump_disp_uv.x = v.x;
+    else bump_disp_uv.y = v.x;
   }
 }
+
+// The shading geometry of the last bsdf_at with lobes after bump_shading (docs/bump-spec.md
+// 6), and whether a bump or normal map changed it: the caller moves bsdf_frame into its
+// SurfacePoint when bsdf_bumped (bsdf_at takes the SurfacePoint by value: an inout struct there
+// made the render pipeline take 25% longer to compile on lavapipe).
+bool bsdf_bumped;
+BumpFrame bsdf_frame;
 
 // Slot value of material m (the one slots_resolve was last called for) at sp.
 vec4 slot_value(uint m, uint slot, SurfacePoint sp) {
@@ -356,9 +378,12 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
 // (section 3), or those of both MIX_WEIGHTED children with weights x (1 - amount) and
 // x amount. One loop visits each material involved and resolves its slots at one call site
 // of slots_resolve (see slot_cache), and add_material_lobes has one call site too.
+// With lobes, the chosen material's bump or normal map (docs/bump-spec.md 6) then sets
+// bsdf_bumped and bsdf_frame, the shading geometry the caller uses from then on.
 Bsdf bsdf_at(uint material, SurfacePoint sp, vec3 wo_world, bool lobes) {
   Bsdf b = Bsdf(0u, 0u, INVALID_INDEX, MATERIAL_NONE);
   uint m = material;
+  if (BUMP_ENABLED || NORMALMAP_ENABLED) bsdf_bumped = false;
 #if !BSDF_ALL_MATERIALS
   if (!material_valid(m)) return b;
   b.material = m;
@@ -409,6 +434,11 @@ Bsdf bsdf_at(uint material, SurfacePoint sp, vec3 wo_world, bool lobes) {
     pending = INVALID_INDEX;
   }
 #endif
+  // The chosen material's bump or normal map, from its slots as slots_resolve left them (a
+  // weighted mix, whose children are resolved after it, has neither: the host refuses them).
+  if ((BUMP_ENABLED || NORMALMAP_ENABLED) && lobes && b.material != INVALID_INDEX)
+    bsdf_bumped = bump_shading(b.material, sp, slot_cache[SLOT_DISPLACEMENT].x, bump_disp_uv,
+                               bsdf_frame);
   return b;
 }
 

@@ -25,6 +25,10 @@ struct SurfacePoint {
   TexCtx tex;  // texture context (docs/textures-spec.md 1, 3); set when FEATURE_TEXTURES
   vec3 dndu;   // shading-normal derivatives (textures-spec 3.2); set when FEATURE_TEXTURES
   vec3 dndv;
+  // The shading pair (pbrt-v4 shading.dpdu, shading.dpdv; docs/bump-spec.md 3), replaced by
+  // the bumped pair when a bump or normal map applies (bump-spec 6); set when FEATURE_TEXTURES.
+  vec3 sdpdu;
+  vec3 sdpdv;
 };
 
 // cross(a, b) spelled out and precise (no fma contraction), as the CPU computes it.
@@ -140,6 +144,15 @@ void shading_frame(vec3 ns, vec3 dpdu, out vec3 t1, out vec3 t2) {
   }
 }
 
+// The shading pair of a triangle with vertex normals (docs/bump-spec.md 3; pbrt-v4
+// Triangle::InteractionFromIntersection): ss = dpdu, ts = cross(ns, ss); ss = cross(ts, ns)
+// when |ts|^2 > 0, else (ss, ts) = the Duff pair of ns. dpdu in, (ss, ts) out.
+void shading_pair_vertex_normals(vec3 ns, inout vec3 ss, out vec3 ts) {
+  ts = cross_exact(ns, ss);
+  if (dot_exact(ts, ts) > 0.0) ss = cross_exact(ts, ns);
+  else duff_frame(ns, ss, ts);
+}
+
 // Magnitude bound of a sphere (center, radius) for offset_ray (docs/path-spec.md section 5):
 // max(|c.x|, |c.y|, |c.z|) + r.
 float sphere_bound(vec4 cr) {
@@ -201,6 +214,9 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
   sp.tex = TexCtx(vec3(0.0), vec3(0.0, 0.0, 1.0), vec2(0.0), vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0);
   sp.dndu = vec3(0.0);
   sp.dndv = vec3(0.0);
+  sp.sdpdu = vec3(0.0);
+  sp.sdpdv = vec3(0.0);
+  bool vertex_normals = false;  // a triangle of a mesh with vertex normals (bump-spec 3)
   vec3 dpdu = vec3(0.0);
   vec3 dpdv = vec3(0.0);
   vec2 uv = vec2(0.0);
@@ -234,6 +250,8 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
     triangle_geometry(tri, vec3(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2), sp.p, sp.ng, sp.ns, sp.m);
     Mesh m = meshes[triangles[tri].mesh];
     sp.material = m.material;
+    vertex_normals = (FEATURES & FEATURE_SHADING_NORMALS) != 0u &&
+                     (m.flags & SHAPE_FLAG_HAS_NORMALS) != 0u;
     sp.light = m.light_base == INVALID_INDEX ? INVALID_INDEX : m.light_base + (tri - m.tri_base);
     // uv and dpdv are dead (and folded away) without FEATURE_TEXTURES.
     triangle_params(tri, vec3(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2), uv, dpdu, dpdv, sp.dndu,
@@ -249,6 +267,10 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
     vec3 cr = cross_exact(du, dv);
     if (cr.x == 0.0 && cr.y == 0.0 && cr.z == 0.0) duff_frame(sp.ng, du, dv);
     compute_differentials(sp.tex, du, dv, has_diff, rd);
+    sp.sdpdu = du;
+    sp.sdpdv = dv;
+    if ((FEATURES2 & (FEATURE2_BUMP | FEATURE2_NORMALMAP)) != 0u && vertex_normals)
+      shading_pair_vertex_normals(sp.ns, sp.sdpdu, sp.sdpdv);
   }
   return sp;
 }

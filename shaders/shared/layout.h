@@ -105,7 +105,9 @@ BASALT_CONST uint FEATURE2_NOISE_SPLIT = 1u << 3;      // noise precision mode "
 BASALT_CONST uint FEATURE2_TEX_SHIRLEY = 1u << 4;      // Shirley's solid textures (extensions)
 BASALT_CONST uint FEATURE2_TEX_MAP_CURVED = 1u << 5;   // a spherical or cylindrical 2D mapping
 BASALT_CONST uint FEATURE2_ENV_PORTAL = 1u << 6;       // an environment map seen through a portal
-BASALT_CONST uint FEATURE2_COUNT = 7u;
+BASALT_CONST uint FEATURE2_BUMP = 1u << 7;             // a bump-mapped material (bump-spec 4)
+BASALT_CONST uint FEATURE2_NORMALMAP = 1u << 8;        // a normal-mapped material (bump-spec 5)
+BASALT_CONST uint FEATURE2_COUNT = 9u;
 
 // ---- primitive references ------------------------------------------------------------
 // A BVH leaf covers prim_refs[a .. a+b). A ref is a triangle index, or a sphere index
@@ -146,6 +148,8 @@ BASALT_CONST uint MATFLAG_REMAP_SQRT = 1u;       //   pbrt-v4: alpha = sqrt(roug
 BASALT_CONST uint MATFLAG_REMAP_V3 = 2u;         //   pbrt-v3 RoughnessToAlpha polynomial
 BASALT_CONST uint MATFLAG_BECKMANN = 1u << 2;    // microfacet lobes use Beckmann, not TR
 BASALT_CONST uint MATFLAG_USE_REFLECTANCE = 1u << 3;  // conductors: Fresnel from reflectance
+BASALT_CONST uint MATFLAG_BUMP = 1u << 4;       // displacement slot given (docs/bump-spec.md 2)
+BASALT_CONST uint MATFLAG_NORMALMAP = 1u << 5;  // normal map in SLOT_NORMALMAP (bump-spec 2)
 
 // Slots (index into Material.value / texture). Float parameters use x.
 BASALT_CONST uint SLOT_DIFFUSE_REFLECTANCE = 0u;
@@ -175,6 +179,9 @@ BASALT_CONST uint SLOT_UBER_KD = 0u, SLOT_UBER_KS = 1u, SLOT_UBER_KR = 2u, SLOT_
                   SLOT_UBER_OPACITY = 7u;
 BASALT_CONST uint SLOT_MEASURED_DIMS = 0u;  // xyz: n theta_h, n theta_d, n phi_d (not a texture)
 BASALT_CONST uint SLOT_MIX_AMOUNT = 0u;     // MIX: x; MIX_WEIGHTED: rgb. Weight of aux1.
+// Every material (docs/bump-spec.md 2): the normal map's MipLevel index as a float in x (never
+// a texture), and the displacement (a float slot).
+BASALT_CONST uint SLOT_NORMALMAP = 14u, SLOT_DISPLACEMENT = 15u;
 // Material.aux0 / aux1: MIX, MIX_WEIGHTED: the two material indices (aux1 gets `amount`);
 // COATED_*: maxdepth, nsamples; MEASURED: aux0 = first float of the table in `measured`.
 
@@ -456,6 +463,13 @@ BASALT_CONST uint PROBE_ENV = 9u;
 //   out: f0 = (dpdx, dudx), f1 = (dpdy, dudy), f2 = (uv, dvdx, dvdy), f3.xyz = p; u.x = prim
 //        (of the second hit for modes 2, 3: u.y = 1 when the second ray carried differentials)
 BASALT_CONST uint PROBE_DIFFERENTIALS = 10u;
+// PROBE_BUMP: the first hit of the camera ray of pixel (key.z, key.w), sample
+// floatBitsToUint(extra.x), its material after mix resolution (wo = -d), then bump_shading
+// (docs/bump-spec.md 6)
+//   out: f0.xyz = the shading normal, f1.xyz = dpdu', f2.xyz = dpdv' (the unbumped shading
+//        pair of bump-spec 3 when no bump applies), f3.xyz = the shading frame's t1;
+//        u.x = prim, u.y = 1 when a bump or normal map changed the frame
+BASALT_CONST uint PROBE_BUMP = 11u;
 
 /// One probe query.
 struct ProbeIn {

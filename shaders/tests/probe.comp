@@ -186,6 +186,27 @@ void main() {
       }
       break;
     }
+    case PROBE_BUMP: {
+      // Shading geometry after bump_shading (docs/bump-spec.md 6) at the first hit of the
+      // camera ray of pixel (key.z, key.w), sample floatBitsToUint(extra.x), with the camera
+      // ray's differentials as the render uses them (layout.h PROBE_BUMP).
+      CameraRay cr = camera_ray(q.key.z, q.key.w, floatBitsToUint(q.extra.x));
+      Ray cam = Ray(cr.o, FLT_MAX, cr.d);
+      RayDiff rd = scale_differentials(RayDiff(cr.rx_o, cr.rx_d, cr.ry_o, cr.ry_d), cr.o, cr.d,
+                                       globals.min_dir_dx.w);
+      Hit h = intersect_closest(cam);
+      r.u.x = h.prim;
+      if (h.prim == INVALID_INDEX) break;
+      SurfacePoint sp = surface_point(cam, h, true, rd);
+      bsdf_at(sp.material, sp, -cr.d, true);
+      BumpFrame f = bsdf_bumped ? bsdf_frame : BumpFrame(sp.ns, sp.t1, sp.t2, sp.sdpdu, sp.sdpdv);
+      r.f0 = vec4(f.ns, 0.0);
+      r.f1 = vec4(f.dpdu, 0.0);
+      r.f2 = vec4(f.dpdv, 0.0);
+      r.f3 = vec4(f.t1, 0.0);
+      r.u.y = bsdf_bumped ? 1u : 0u;
+      break;
+    }
     case PROBE_ENV: {
       // Image infinite light key.y (docs/textures-spec.md section 6) at world direction d:
       // Le and the plain pdf (f0), the compensated pdf (f3.x), and a sample with u = extra.xy

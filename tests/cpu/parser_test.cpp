@@ -1206,10 +1206,16 @@ TEST(MaterialErrors, LocatedMessages) {
             "t.pbrt:2:22: error: parameter \"eta\": spectrum texture \"rust\" is not defined");
   EXPECT_EQ(error_of("WorldBegin\nMaterial \"dielectric\" \"texture roughness\" \"r\"\n"),
             "t.pbrt:2:23: error: parameter \"uroughness\": float texture \"r\" is not defined");
+  // docs/bump-spec.md 1: a missing normal map file, an undefined bump texture, a mix with a
+  // displacement.
   EXPECT_EQ(error_of("WorldBegin\nMaterial \"diffuse\" \"string normalmap\" \"n.png\"\n"),
-            "t.pbrt:2:20: error: normal maps are not supported yet");
-  EXPECT_EQ(error_of("WorldBegin\nMaterial \"plastic\" \"texture bumpmap\" \"b\"\n"),
-            "t.pbrt:2:20: error: bump maps are not supported yet");
+            "t.pbrt:2:20: error: image file \"n.png\": no such file");
+  EXPECT_EQ(error_of("WorldBegin\nMaterial \"plastic\" \"texture bumpmap\" \"b\"\n"
+                     "Shape \"sphere\"\n"),
+            "t.pbrt:2:20: error: parameter \"displacement\": float texture \"b\" is not defined");
+  EXPECT_EQ(error_of("WorldBegin\nMakeNamedMaterial \"x\" \"string type\" \"mix\" "
+                     "\"string materials\" [\"a\" \"b\"] \"float displacement\" 0.1\n"),
+            "t.pbrt:2:72: error: a 'mix' material takes no parameter \"displacement\"");
   EXPECT_EQ(error_of("WorldBegin\nMaterial \"conductor\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
                      "  \"spectrum eta\" \"metal-Au-eta\"\n"),
             "t.pbrt:2:22: error: give either \"reflectance\" or \"eta\" and \"k\", not both "

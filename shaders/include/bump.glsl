@@ -1,0 +1,184 @@
+// Bump and normal mapping (docs/bump-spec.md; pbrt-v4 materials.h BumpMap / NormalMap and
+// interaction.cpp SurfaceInteraction::GetBSDF with SetShadingGeometry(..., false)). The CPU twin
+// is host/cpu/bump.cpp (same function names). Needs bindings.glsl.
+//
+// Compile-time note (see bsdf.glsl): the displacement texture is evaluated at its three
+// contexts by slots_resolve's one texture-interpreter loop (two extra iterations take the
+// shifted contexts of bump_shifted_ctx); bump_map only combines the three values. Everything
+// here is gated by FEATURES2 & (FEATURE2_BUMP | FEATURE2_NORMALMAP), so scenes without bump or
+// normal maps compile it away.
+#ifndef BASALT_BUMP_GLSL
+#define BASALT_BUMP_GLSL
+
+#include "math.glsl"
+#include "sampling.glsl"
+#include "mipmap.glsl"
+#include "surface.glsl"
+
+// True if the scene may bump (FEATURE2_BUMP) or normal-map (FEATURE2_NORMALMAP).
+const bool BUMP_ENABLED = (FEATURES2 & FEATURE2_BUMP) != 0u;
+const bool NORMALMAP_ENABLED = (FEATURES2 & FEATURE2_NORMALMAP) != 0u;
+
+// True if material flags `mflags` ask for the bump of bump-spec 4 (a displacement and no
+// normal map: the normal map wins, bump-spec 1).
+bool bump_wanted(uint mflags) {
+  return BUMP_ENABLED && (mflags & MATFLAG_BUMP) != 0u &&
+         !(NORMALMAP_ENABLED && (mflags & MATFLAG_NORMALMAP) != 0u);
+}
+
+// The steps du, dv of bump-spec 4.1 (pbrt-v4 BumpMap): half the summed |footprint| in u and
+// v, 0.0005 where that is 0.
+vec2 bump_steps(TexCtx c) {
+  precise float du = 0.5 * (abs(c.dudx) + abs(c.dudy));
+  precise float dv = 0.5 * (abs(c.dvdx) + abs(c.dvdy));
+  if (du == 0.0) du = 0.0005;
+  if (dv == 0.0) dv = 0.0005;
+  return vec2(du, dv);
+}
+
+// The shifted texture context of bump-spec 4.2: k = 0 gives cu (p + du sdpdu, uv + (du, 0)),
+// k = 1 gives cv (p + dv sdpdv, uv + (0, dv)); the rest of sp.tex unchanged.
+TexCtx bump_shifted_ctx(SurfacePoint sp, uint k) {
+  vec2 st = bump_steps(sp.tex);
+  TexCtx c = sp.tex;
+  float h = k == 0u ? st.x : st.y;
+  vec3 dir = k == 0u ? sp.sdpdu : sp.sdpdv;
+  precise vec3 p = c.p + h * dir;
+  precise vec2 uv = c.uv + (k == 0u ? vec2(h, 0.0) : vec2(0.0, h));
+  c.p = p;
+  c.uv = uv;
+  return c;
+}
+
+// dpdu' = (a + s n) + d b as bump-spec 4.4 writes it (left to right, no fma).
+vec3 bump_combine(vec3 a, float s, vec3 n, float d, vec3 b) {
+  precise vec3 r = (a + s * n) + d * b;
+  return r;
+}
+
+// The bumped shading pair of bump-spec 4 (pbrt-v4 BumpMap) from the displacement at the hit
+// (disp), at cu (disp_u) and at cv (disp_v).
+void bump_map(SurfacePoint sp, float disp, float disp_u, float disp_v, out vec3 dpdu,
+              out vec3 dpdv) {
+  vec2 st = bump_steps(sp.tex);
+  precise float su = (disp_u - disp) / st.x;
+  precise float sv = (disp_v - disp) / st.y;
+  dpdu = bump_combine(sp.sdpdu, su, sp.ns, disp, sp.dndu);
+  dpdv = bump_combine(sp.sdpdv, sv, sp.ns, disp, sp.dndv);
+}
+
+// Bilinear weight products of pbrt-v4 Image::BilerpChannel: ((1-dx)(1-dy), dx(1-dy),
+// (1-dx)dy, dx dy).
+vec4 normal_map_weights(float dx, float dy) {
+  precise float ex = 1.0 - dx;
+  precise float ey = 1.0 - dy;
+  precise vec4 w = vec4(ex * ey, dx * ey, ex * dy, dx * dy);
+  return w;
+}
+
+// a x + b y + c z summed left to right, no fma (a frame's FromLocal).
+vec3 frame_from_local(vec3 a, vec3 b, vec3 c, vec3 l) {
+  precise vec3 r = a * l.x + b * l.y + c * l.z;
+  return r;
+}
+
+// v - dot(v, n) n (Gram-Schmidt), no fma.
+vec3 gram_schmidt(vec3 v, vec3 n) {
+  float d = dot_exact(v, n);
+  precise vec3 r = v - d * n;
+  return r;
+}
+
+// The normal-mapped shading pair of bump-spec 5 (pbrt-v4 NormalMap) from MipLevel `level`
+// (level 0 of the normal map, 3 channels); false (no normal map at this hit) where the tangent
+// normal is zero or not finite or sdpdu is zero (bump-spec 5.2, 5.3).
+bool normal_map(SurfacePoint sp, uint level, out vec3 dpdu, out vec3 dpdv) {
+  dpdu = sp.sdpdu;
+  dpdv = sp.sdpdv;
+  // 5.1: bilinear lookup at (u, 1 - v), repeat wrap (pbrt-v4 Image::BilerpChannel).
+  MipLevel ml = mip_levels[level];
+  precise float t = 1.0 - sp.tex.uv.y;
+  precise float x = sp.tex.uv.x * float(ml.width) - 0.5;
+  precise float y = t * float(ml.height) - 0.5;
+  // basalt guard (bump-spec is silent): a coordinate beyond int range has no texel.
+  if (!(abs(x) < 1073741824.0 && abs(y) < 1073741824.0)) return false;
+  float fx = floor(x), fy = floor(y);
+  precise float dx = x - fx;
+  precise float dy = y - fy;
+  ivec2 xy = ivec2(int(fx), int(fy));
+  vec4 w = normal_map_weights(dx, dy);
+  precise vec3 rgb = vec3(0.0);
+  // One texel read site (code size): texels (xi, yi), (xi+1, yi), (xi, yi+1), (xi+1, yi+1).
+  [[dont_unroll]] for (uint k = 0u; k < 4u; ++k) {
+    vec3 tx = mipmap_texel(level, xy + ivec2(int(k & 1u), int(k >> 1u)), WRAP_REPEAT, false);
+    rgb = k == 0u ? w[0] * tx : rgb + w[k] * tx;
+  }
+  // 5.2: the tangent-space normal.
+  precise vec3 nt = 2.0 * rgb - vec3(1.0);
+  float l2 = dot_exact(nt, nt);
+  if (!(l2 > 0.0) || isinf(l2)) return false;
+  nt = nt / sqrt(l2);
+  // 5.3: pbrt-v4 Frame::FromXZ(normalize(sdpdu), ns).
+  float u2 = dot_exact(sp.sdpdu, sp.sdpdu);
+  if (u2 == 0.0) return false;
+  vec3 fx_ = sp.sdpdu / sqrt(u2);
+  vec3 fy_ = cross_exact(sp.ns, fx_);
+  vec3 nw = frame_from_local(fx_, fy_, sp.ns, nt);
+  // 5.4: the pair that gives nw, with the lengths of the unbumped one.
+  float ulen = sqrt(u2);
+  float vlen = sqrt(dot_exact(sp.sdpdv, sp.sdpdv));
+  vec3 gs = gram_schmidt(sp.sdpdu, nw);
+  dpdu = (gs / sqrt(dot_exact(gs, gs))) * ulen;
+  vec3 cr = cross_exact(nw, dpdu);
+  dpdv = (cr / sqrt(dot_exact(cr, cr))) * vlen;
+  return true;
+}
+
+// The shading geometry after a bump or normal map (docs/bump-spec.md 6.4): normal, frame
+// (t1, t2) and the pair (dpdu', dpdv') (pbrt-v4 shading.n, shading.dpdu, shading.dpdv).
+struct BumpFrame {
+  vec3 ns;
+  vec3 t1;
+  vec3 t2;
+  vec3 dpdu;
+  vec3 dpdv;
+};
+
+// The shading geometry of the new pair (dpdu, dpdv) at sp as bump-spec 6.2-6.4 (pbrt-v4
+// SetShadingGeometry(ns, dpdu, dpdv, dndu, dndv, false)): n' = normalize(cross(dpdu, dpdv))
+// face-forwarded to sp.ng, the frame shading_frame(n', dpdu). False where n' is zero or not
+// finite (the hit keeps its unbumped frame).
+bool bump_frame(SurfacePoint sp, vec3 dpdu, vec3 dpdv, out BumpFrame f) {
+  f = BumpFrame(sp.ns, sp.t1, sp.t2, sp.sdpdu, sp.sdpdv);
+  vec3 c = cross_exact(dpdu, dpdv);
+  float l2 = dot_exact(c, c);
+  vec3 n = c / sqrt(l2);
+  if (any(isnan(n)) || any(isinf(n)) || (n.x == 0.0 && n.y == 0.0 && n.z == 0.0)) return false;
+  if (dot_exact(n, sp.ng) < 0.0) n = -n;
+  f.ns = n;
+  shading_frame(n, dpdu, f.t1, f.t2);
+  f.dpdu = dpdu;
+  f.dpdv = dpdv;
+  return true;
+}
+
+// bump_shading (bump-spec 6) of material m (the material after mix resolution) at sp: the
+// normal map if MATFLAG_NORMALMAP, else the bump if MATFLAG_BUMP (the displacement at the hit
+// is `disp`, at cu and cv `disp_uv`), else nothing. True if a bump or normal map gave the new
+// shading geometry f; false (f = sp's) otherwise.
+bool bump_shading(uint m, SurfacePoint sp, float disp, vec2 disp_uv, out BumpFrame f) {
+  f = BumpFrame(sp.ns, sp.t1, sp.t2, sp.sdpdu, sp.sdpdv);
+  if (!BUMP_ENABLED && !NORMALMAP_ENABLED) return false;
+  uint mflags = materials[m].flags;
+  vec3 dpdu, dpdv;
+  if (NORMALMAP_ENABLED && (mflags & MATFLAG_NORMALMAP) != 0u) {
+    if (!normal_map(sp, uint(materials[m].value[SLOT_NORMALMAP].x), dpdu, dpdv)) return false;
+  } else if (bump_wanted(mflags)) {
+    bump_map(sp, disp, disp_uv.x, disp_uv.y, dpdu, dpdv);
+  } else {
+    return false;
+  }
+  return bump_frame(sp, dpdu, dpdv, f);
+}
+
+#endif
