@@ -137,6 +137,23 @@ double sine_bound(const SurfacePoint& sp, double amp, double w) {
 
 // ---- closed forms ----------------------------------------------------------------------------
 
+/// The quad [-1, 1]^2 at z = 0 (uv [0, 1]^2) bumped by d(x) = 0.01 (1 + sin(pi x / 0.25))
+/// (Shirley's smooth stripe), seen from (0, 0, cam_z) at 256 x 256 and 64 spp.
+SceneTables sine_plane_tables(float cam_z) {
+  return tables_from_string("LookAt 0 0 " + std::to_string(cam_z) + R"(  0 0 0  0 1 0
+Camera "perspective" "float fov" [ 30 ]
+Film "rgb" "integer xresolution" [ 256 ] "integer yresolution" [ 256 ]
+Sampler "independent" "integer pixelsamples" [ 64 ]
+WorldBegin
+LightSource "infinite" "rgb L" [ 1 1 1 ]
+Texture "sine" "float" "stripe" "string form" "smooth" "float width" [ 0.25 ]
+  "float tex1" [ 0 ] "float tex2" [ 0.02 ]
+Material "diffuse" "texture displacement" "sine"
+Shape "trianglemesh" "point3 P" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ]
+  "integer indices" [ 0 1 2  0 2 3 ] "point2 uv" [ 0 0  1 0  1 1  0 1 ]
+)");
+}
+
 // d(u, v) = A sin(2 pi f u) on a plane: the bumped normal is normalize(ns - d'(u) dpdu / |dpdu|^2)
 // (cross(dpdu + d' n, dpdv) for orthogonal dpdu, dpdv of length L). bump_map's forward
 // difference of step h is off by h/2 d''(u) in the slope, so with h = 2^-13 (exact in uv at
@@ -176,19 +193,7 @@ TEST(Bump, SinePlaneMatchesClosedForm) {
   // z = 0 with uv [0, 1]^2 (dpdu = (2, 0, 0)): n = normalize(ns - d_x x). The step is the
   // footprint's (about 2e-4 in u at 256 x 256 and the 64-spp differential scale), so the
   // truncation error is below 2 du / 2 * 0.01 (pi / w)^2 = 3.2e-4.
-  const SceneTables t = tables_from_string(R"(
-LookAt 0 0 3  0 0 0  0 1 0
-Camera "perspective" "float fov" [ 30 ]
-Film "rgb" "integer xresolution" [ 256 ] "integer yresolution" [ 256 ]
-Sampler "independent" "integer pixelsamples" [ 64 ]
-WorldBegin
-LightSource "infinite" "rgb L" [ 1 1 1 ]
-Texture "sine" "float" "stripe" "string form" "smooth" "float width" [ 0.25 ]
-  "float tex1" [ 0 ] "float tex2" [ 0.02 ]
-Material "diffuse" "texture displacement" "sine"
-Shape "trianglemesh" "point3 P" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ]
-  "integer indices" [ 0 1 2  0 2 3 ] "point2 uv" [ 0 0  1 0  1 1  0 1 ]
-)");
+  const SceneTables t = sine_plane_tables(3.0f);
   ASSERT_TRUE(t.features2 & gpu::FEATURE2_BUMP);
   const double w = 0.25, amp = 0.01;
   std::vector<gpu::ProbeIn> q;
@@ -505,19 +510,7 @@ Material "diffuse" "texture displacement" ")") + disp + "\"\n" + shape + "\n");
 // is face-forwarded to ng, not to the viewer, and on the quad matches the closed form of
 // SinePlaneMatchesClosedForm (the bump does not depend on the side it is seen from).
 TEST(Bump, BackFacingHit) {
-  const SceneTables t = tables_from_string(R"(
-LookAt 0 0 -3  0 0 0  0 1 0
-Camera "perspective" "float fov" [ 30 ]
-Film "rgb" "integer xresolution" [ 256 ] "integer yresolution" [ 256 ]
-Sampler "independent" "integer pixelsamples" [ 64 ]
-WorldBegin
-LightSource "infinite" "rgb L" [ 1 1 1 ]
-Texture "sine" "float" "stripe" "string form" "smooth" "float width" [ 0.25 ]
-  "float tex1" [ 0 ] "float tex2" [ 0.02 ]
-Material "diffuse" "texture displacement" "sine"
-Shape "trianglemesh" "point3 P" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ]
-  "integer indices" [ 0 1 2  0 2 3 ] "point2 uv" [ 0 0  1 0  1 1  0 1 ]
-)");
+  const SceneTables t = sine_plane_tables(-3.0f);
   const double w = 0.25, amp = 0.01;
   double worst = 0.0;
   int n = 0;
