@@ -3,10 +3,12 @@
 #include <CLI/CLI.hpp>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <string>
 
 #include "cpu/render.h"
 #include "image/image_io.h"
@@ -33,8 +35,10 @@ constexpr int kExitInput = 1, kExitValidation = 3;
 
 struct Options {
   std::string scene, device = "auto", stats, mix = "auto", texture_filter = "scene",
-              noise_precision = "split";
+              noise_precision = "split", bump_differences = "forward", bump_dndu = "on",
+              bump_step = "footprint";
   int noise_octaves = 0;
+  float displacement_edge_scale = 0.0f;  // 0: the scene's Option "displacementedgescale"
   std::vector<std::string> outputs;
   int spp = -1;
   long long seed = -1;
@@ -54,6 +58,8 @@ int run(const Options& opt) {
   st.seconds_parse = since(t0);
   for (const auto& w : scene.warnings) std::cerr << w << "\n";
   if (opt.spp >= 0) scene.sampler.spp = opt.spp;
+  if (opt.displacement_edge_scale > 0.0f)
+    scene.displacement_edge_scale = opt.displacement_edge_scale;
   if (opt.seed >= 0) scene.sampler.seed = int(opt.seed);
   std::vector<std::string> outputs = opt.outputs;
   if (outputs.empty()) outputs.push_back(scene.film.filename);
@@ -75,6 +81,15 @@ int run(const Options& opt) {
     if (opt.texture_filter == kFilters[i]) filter = i;
   st.quality = basalt::apply_texture_knobs(tables, filter, opt.noise_octaves,
                                            opt.noise_precision == "split");
+  {
+    // --bump-*: docs/bump-spec.md 4.5; the CLI checks make bump_step "footprint" or a number.
+    const float step = opt.bump_step == "footprint" ? 0.0f : std::stof(opt.bump_step);
+    for (auto& k : basalt::apply_bump_knobs(tables, opt.bump_differences == "central",
+                                            opt.bump_dndu == "on", step))
+      st.quality.push_back(k);
+    st.quality.emplace_back("displacement_edge_scale",
+                            std::to_string(scene.displacement_edge_scale));
+  }
   st.seconds_bvh = times.seconds_bvh;
   st.width = int(tables.width());
   st.height = int(tables.height());
@@ -169,6 +184,29 @@ int main(int argc, char** argv) {
                  "noise lookups: split (exact lattice position at any scale, the default) or fp32 "
                  "(pbrt-v4's arithmetic)")
       ->check(CLI::IsMember({"split", "fp32"}));
+  app.add_option("--bump-differences", opt.bump_differences,
+                 "bump mapping's finite differences: forward (pbrt-v4, the default) or central")
+      ->check(CLI::IsMember({"forward", "central"}));
+  app.add_option("--bump-dndu", opt.bump_dndu,
+                 "the d dn/du term of the bump chain rule: on (pbrt-v4, the default) or off")
+      ->check(CLI::IsMember({"on", "off"}));
+  app.add_option("--bump-step", opt.bump_step,
+                 "bump difference step: footprint (pbrt-v4's, from the ray differentials; the "
+                 "default) or a fixed step in (u, v) units, e.g. 1e-3")
+      ->check([](const std::string& v) -> std::string {
+        if (v == "footprint") return {};
+        try {
+          std::size_t used = 0;
+          const float f = std::stof(v, &used);
+          if (used == v.size() && f > 0.0f && std::isfinite(f)) return {};
+        } catch (const std::exception&) {
+        }
+        return "must be 'footprint' or a positive number, got '" + v + "'";
+      });
+  app.add_option("--displacement-edge-scale", opt.displacement_edge_scale,
+                 "scale every displaced plymesh's \"edgelength\" (pbrt-v4's option of the same "
+                 "name; default: the scene's Option \"displacementedgescale\", else 1)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--stats", opt.stats, "write render statistics as JSON to this file");
   app.add_flag("-q,--quiet", opt.quiet, "no progress bar or summary");
   app.add_flag("--list-devices", list, "list Vulkan devices and exit");

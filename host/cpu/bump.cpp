@@ -4,6 +4,7 @@
 
 #include <cfloat>
 #include <cmath>
+#include <cstring>
 
 #include "cpu/mipmap.h"
 
@@ -22,34 +23,59 @@ glm::vec3 normalize_div(glm::vec3 v) { return v / std::sqrt(glm::dot(v, v)); }
 /// length has lost precision in a subnormal, and GPUs flush it to zero: bump-spec 6 "zero").
 bool usable_length2(float l2) { return l2 >= FLT_MIN && std::isfinite(l2); }
 
-/// The difference step of bump-spec 4 step 1 from one parameter's two differentials.
-float bump_step(float dx, float dy) {
+/// The difference step of bump-spec 4 step 1 from one parameter's two differentials, or the
+/// fixed step of bump-spec 4.5 when \p fixed is positive.
+float bump_step(float dx, float dy, float fixed) {
+  if (fixed > 0.0f) return fixed;
   const float d = 0.5f * (std::fabs(dx) + std::fabs(dy));
   return d == 0.0f ? 0.0005f : d;
 }
 
+/// ctx moved by step h along dir and by h in uv component k (bump-spec 4.2): cu, cv, and with
+/// a negative h the backward contexts of 4.5.
+TextureContext shifted(const TextureContext& ctx, float h, glm::vec3 dir, int k) {
+  TextureContext c = ctx;
+  c.p = ctx.p + h * dir;
+  c.uv[k] = ctx.uv[k] + h;
+  return c;
+}
+
 }  // namespace
 
-void bump_map(const Displacement& D, const SurfacePoint& sp, glm::vec3& dpdu, glm::vec3& dpdv) {
+BumpKnobs bump_knobs(const gpu::Globals& g) {
+  BumpKnobs k;
+  k.central = (g.texture_opts.x & gpu::TEXOPT_BUMP_CENTRAL) != 0u;
+  k.dndu = (g.texture_opts.x & gpu::TEXOPT_BUMP_NO_DNDU) == 0u;
+  std::memcpy(&k.fixed_step, &g.texture_opts.z, sizeof(float));
+  return k;
+}
+
+void bump_map(const Displacement& D, const SurfacePoint& sp, glm::vec3& dpdu, glm::vec3& dpdv,
+              const BumpKnobs& knobs) {
   // pbrt-v4 BumpMap (materials.h): forward differences of the displacement along the
-  // shading pair, in shifted copies of the texture context (bump-spec 4).
+  // shading pair, in shifted copies of the texture context (bump-spec 4); central differences,
+  // a fixed step and no d dn/du term are the knobs of bump-spec 4.5.
   const TextureContext& ctx = sp.tex;
-  const float du = bump_step(ctx.dudx, ctx.dudy);
-  const float dv = bump_step(ctx.dvdx, ctx.dvdy);
-  TextureContext cu = ctx;
-  cu.p = ctx.p + du * sp.sdpdu;
-  cu.uv = ctx.uv + glm::vec2(du, 0.0f);
-  TextureContext cv = ctx;
-  cv.p = ctx.p + dv * sp.sdpdv;
-  cv.uv = ctx.uv + glm::vec2(0.0f, dv);
-  const float dU = D(cu);
-  const float dV = D(cv);
+  const float du = bump_step(ctx.dudx, ctx.dudy, knobs.fixed_step);
+  const float dv = bump_step(ctx.dvdx, ctx.dvdy, knobs.fixed_step);
+  const float dU = D(shifted(ctx, du, sp.sdpdu, 0));
+  const float dV = D(shifted(ctx, dv, sp.sdpdv, 1));
   const float d = D(ctx);
+  float su, sv;
+  if (knobs.central) {
+    const float dUm = D(shifted(ctx, -du, sp.sdpdu, 0));
+    const float dVm = D(shifted(ctx, -dv, sp.sdpdv, 1));
+    su = (dU - dUm) / (du + du);
+    sv = (dV - dVm) / (dv + dv);
+  } else {
+    su = (dU - d) / du;
+    sv = (dV - d) / dv;
+  }
   const glm::vec3 ns = sp.g.ns;
-  const float su = (dU - d) / du;
-  const float sv = (dV - d) / dv;
-  dpdu = (sp.sdpdu + su * ns) + d * sp.g.dndu;
-  dpdv = (sp.sdpdv + sv * ns) + d * sp.g.dndv;
+  // Without the d dn/du term the displacement's own value does not enter (4.5).
+  const float dn = knobs.dndu ? d : 0.0f;
+  dpdu = (sp.sdpdu + su * ns) + dn * sp.g.dndu;
+  dpdv = (sp.sdpdv + sv * ns) + dn * sp.g.dndv;
 }
 
 void bump_map(const SceneTables& scene, const gpu::Material& m, const SurfacePoint& sp,
@@ -58,10 +84,11 @@ void bump_map(const SceneTables& scene, const gpu::Material& m, const SurfacePoi
   const std::uint32_t root = m.texture[gpu::SLOT_DISPLACEMENT / 4][gpu::SLOT_DISPLACEMENT % 4];
   const float constant = m.value[gpu::SLOT_DISPLACEMENT].x;
   if (root == gpu::INVALID_INDEX) {
-    bump_map([constant](const TextureContext&) { return constant; }, sp, dpdu, dpdv);
+    bump_map([constant](const TextureContext&) { return constant; }, sp, dpdu, dpdv,
+             bump_knobs(scene.globals));
   } else {
     bump_map([&scene, root](const TextureContext& c) { return tex_eval_float(scene, root, c); },
-             sp, dpdu, dpdv);
+             sp, dpdu, dpdv, bump_knobs(scene.globals));
   }
 }
 

@@ -18,15 +18,26 @@ namespace basalt::cpu {
 /// A displacement D(c): its value in texture context c (bump-spec 4).
 using Displacement = std::function<float(const TextureContext&)>;
 
+/// The bump quality knobs of bump-spec 4.5 (defaults: pbrt-v4's BumpMap).
+struct BumpKnobs {
+  bool central = false;     ///< central differences instead of forward ones
+  bool dndu = true;         ///< the d dn/du, d dn/dv terms of the chain rule
+  float fixed_step = 0.0f;  ///< du = dv = this when positive, else from the footprint
+};
+
+/// The bump knobs held in Globals.texture_opts (TEXOPT_BUMP_*, z = fixed step's bits).
+BumpKnobs bump_knobs(const gpu::Globals& g);
+
 /// \brief bump-spec 4 (pbrt-v4 BumpMap) with the displacement \p D: the bumped partial
 ///        derivatives dpdu', dpdv' of the hit \p sp, from its texture context sp.tex (p, uv
 ///        and footprint), shading normal sp.g.ns, shading pair (sp.sdpdu, sp.sdpdv) and
 ///        sp.g.dndu, sp.g.dndv. Forward differences of step du = (|dudx| + |dudy|) / 2
-///        (0.0005 when zero), likewise dv.
-void bump_map(const Displacement& D, const SurfacePoint& sp, glm::vec3& dpdu, glm::vec3& dpdv);
+///        (0.0005 when zero), likewise dv; \p knobs may change that (bump-spec 4.5).
+void bump_map(const Displacement& D, const SurfacePoint& sp, glm::vec3& dpdu, glm::vec3& dpdv,
+              const BumpKnobs& knobs = {});
 
 /// \brief bump_map with D = the displacement slot (SLOT_DISPLACEMENT) of material \p m:
-///        tex_eval_float of its texture program, or its constant.
+///        tex_eval_float of its texture program, or its constant; knobs from scene.globals.
 void bump_map(const SceneTables& scene, const gpu::Material& m, const SurfacePoint& sp,
               glm::vec3& dpdu, glm::vec3& dpdv);
 

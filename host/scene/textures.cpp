@@ -799,4 +799,18 @@ std::vector<std::pair<std::string, std::string>> apply_texture_knobs(SceneTables
   return knobs;
 }
 
+std::vector<std::pair<std::string, std::string>> apply_bump_knobs(SceneTables& t, bool central,
+                                                                  bool dndu, float fixed_step) {
+  std::uint32_t& bits = t.globals.texture_opts.x;
+  bits = central ? (bits | gpu::TEXOPT_BUMP_CENTRAL) : (bits & ~gpu::TEXOPT_BUMP_CENTRAL);
+  bits = dndu ? (bits & ~gpu::TEXOPT_BUMP_NO_DNDU) : (bits | gpu::TEXOPT_BUMP_NO_DNDU);
+  const float step = fixed_step > 0.0f && std::isfinite(fixed_step) ? fixed_step : 0.0f;
+  std::memcpy(&t.globals.texture_opts.z, &step, sizeof(float));
+  std::vector<std::pair<std::string, std::string>> knobs;
+  knobs.emplace_back("bump_differences", central ? "central" : "forward");
+  knobs.emplace_back("bump_dndu", dndu ? "on" : "off");
+  knobs.emplace_back("bump_step", step > 0.0f ? std::to_string(step) : "footprint");
+  return knobs;
+}
+
 }  // namespace basalt

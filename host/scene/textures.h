@@ -94,4 +94,11 @@ std::vector<std::pair<std::string, std::string>> apply_texture_knobs(SceneTables
                                                                      int octave_cap,
                                                                      bool split_noise = true);
 
+/// \brief Bump quality knobs of the command line (docs/bump-spec.md 4.5), applied to built
+/// tables (Globals.texture_opts): \p central differences instead of forward ones, \p dndu
+/// keeps the d dn/du term, \p fixed_step > 0 replaces the footprint step. Returns the knobs in
+/// force as name/value pairs for --stats.
+std::vector<std::pair<std::string, std::string>> apply_bump_knobs(SceneTables& t, bool central,
+                                                                  bool dndu, float fixed_step);
+
 }  // namespace basalt

@@ -66,18 +66,19 @@ struct Bsdf {
 vec4 slot_cache[MATERIAL_SLOTS];
 
 // The displacement of a bump-mapped material (docs/bump-spec.md 4.3) at the shifted contexts
-// cu (x) and cv (y), set by slots_resolve next to slot_cache[SLOT_DISPLACEMENT] (at the hit).
-vec2 bump_disp_uv;
+// of bump_shifted_ctx: cu (x), cv (y) and, for central differences, the backward ones (z, w);
+// set by slots_resolve next to slot_cache[SLOT_DISPLACEMENT] (at the hit).
+vec4 bump_disp_uv;
 
 // Evaluates every slot of material m at sp into slot_cache: the constant, or the value of the
 // slot's texture program in the hit's context (docs/textures-spec.md 2; a float program holds
-// its value in x, y and z alike). A material to bump (bump_wanted) takes two more iterations:
-// its displacement slot at the shifted contexts cu and cv of bump-spec 4.2, into bump_disp_uv,
-// so that the texture interpreter keeps its one call site.
+// its value in x, y and z alike). A material to bump (bump_wanted) takes two more iterations
+// (four with central differences): its displacement slot at the shifted contexts of
+// bump_shifted_ctx, into bump_disp_uv, so that the texture interpreter keeps its one call site.
 void slots_resolve(uint m, SurfacePoint sp) {
   if ((FEATURES & FEATURE_TEXTURES) == 0u) return;
   uint n = MATERIAL_SLOTS;
-  if (BUMP_ENABLED && bump_wanted(materials[m].flags)) n += 2u;
+  if (BUMP_ENABLED && bump_wanted(materials[m].flags)) n += bump_central() ? 4u : 2u;
   [[dont_unroll]] for (uint s = 0u; s < n; ++s) {
     bool shifted = BUMP_ENABLED && s >= MATERIAL_SLOTS;
     uint slot = shifted ? SLOT_DISPLACEMENT : s;
@@ -86,8 +87,7 @@ void slots_resolve(uint m, SurfacePoint sp) {
     uint tex = materials[m].texture[slot / 4u][slot % 4u];
     vec4 v = tex != INVALID_INDEX ? vec4(tex_eval_rgb(tex, c), 0.0) : materials[m].value[slot];
     if (!shifted) slot_cache[s] = v;
-    else if (s == MATERIAL_SLOTS) bump_disp_uv.x = v.x;
-    else bump_disp_uv.y = v.x;
+    else bump_disp_uv[s - MATERIAL_SLOTS] = v.x;
   }
 }
 

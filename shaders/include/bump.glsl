@@ -26,9 +26,14 @@ bool bump_wanted(uint mflags) {
          !(NORMALMAP_ENABLED && (mflags & MATFLAG_NORMALMAP) != 0u);
 }
 
+// True if the bump takes central differences (bump-spec 4.5, TEXOPT_BUMP_CENTRAL).
+bool bump_central() { return (globals.texture_opts.x & TEXOPT_BUMP_CENTRAL) != 0u; }
+
 // The steps du, dv of bump-spec 4.1 (pbrt-v4 BumpMap): half the summed |footprint| in u and
-// v, 0.0005 where that is 0.
+// v, 0.0005 where that is 0; or the fixed step of bump-spec 4.5 (Globals.texture_opts.z).
 vec2 bump_steps(TexCtx c) {
+  float fixed_step = uintBitsToFloat(globals.texture_opts.z);
+  if (fixed_step > 0.0) return vec2(fixed_step);
   precise float du = 0.5 * (abs(c.dudx) + abs(c.dudy));
   precise float dv = 0.5 * (abs(c.dvdx) + abs(c.dvdy));
   if (du == 0.0) du = 0.0005;
@@ -37,14 +42,16 @@ vec2 bump_steps(TexCtx c) {
 }
 
 // The shifted texture context of bump-spec 4.2: k = 0 gives cu (p + du sdpdu, uv + (du, 0)),
-// k = 1 gives cv (p + dv sdpdv, uv + (0, dv)); the rest of sp.tex unchanged.
+// k = 1 gives cv (p + dv sdpdv, uv + (0, dv)), k = 2 and 3 the backward contexts of central
+// differences (4.5: steps -du, -dv); the rest of sp.tex unchanged.
 TexCtx bump_shifted_ctx(SurfacePoint sp, uint k) {
   vec2 st = bump_steps(sp.tex);
   TexCtx c = sp.tex;
-  float h = k == 0u ? st.x : st.y;
-  vec3 dir = k == 0u ? sp.sdpdu : sp.sdpdv;
+  float h = (k & 1u) == 0u ? st.x : st.y;
+  if (k >= 2u) h = -h;
+  vec3 dir = (k & 1u) == 0u ? sp.sdpdu : sp.sdpdv;
   precise vec3 p = c.p + h * dir;
-  precise vec2 uv = c.uv + (k == 0u ? vec2(h, 0.0) : vec2(0.0, h));
+  precise vec2 uv = c.uv + ((k & 1u) == 0u ? vec2(h, 0.0) : vec2(0.0, h));
   c.p = p;
   c.uv = uv;
   return c;
@@ -56,15 +63,29 @@ vec3 bump_combine(vec3 a, float s, vec3 n, float d, vec3 b) {
   return r;
 }
 
+// The slope (hi - lo) / h of a finite difference, no fma.
+float bump_slope(float hi, float lo, float h) {
+  precise float s = (hi - lo) / h;
+  return s;
+}
+
 // The bumped shading pair of bump-spec 4 (pbrt-v4 BumpMap) from the displacement at the hit
-// (disp), at cu (disp_u) and at cv (disp_v).
-void bump_map(SurfacePoint sp, float disp, float disp_u, float disp_v, out vec3 dpdu,
-              out vec3 dpdv) {
+// (disp) and at the shifted contexts of bump_shifted_ctx (disp_uv: cu, cv, and for central
+// differences the backward ones), with the knobs of bump-spec 4.5.
+void bump_map(SurfacePoint sp, float disp, vec4 disp_uv, out vec3 dpdu, out vec3 dpdv) {
   vec2 st = bump_steps(sp.tex);
-  precise float su = (disp_u - disp) / st.x;
-  precise float sv = (disp_v - disp) / st.y;
-  dpdu = bump_combine(sp.sdpdu, su, sp.ns, disp, sp.dndu);
-  dpdv = bump_combine(sp.sdpdv, sv, sp.ns, disp, sp.dndv);
+  float su, sv;
+  if (bump_central()) {
+    precise vec2 two = st + st;
+    su = bump_slope(disp_uv.x, disp_uv.z, two.x);
+    sv = bump_slope(disp_uv.y, disp_uv.w, two.y);
+  } else {
+    su = bump_slope(disp_uv.x, disp, st.x);
+    sv = bump_slope(disp_uv.y, disp, st.y);
+  }
+  float dn = (globals.texture_opts.x & TEXOPT_BUMP_NO_DNDU) != 0u ? 0.0 : disp;
+  dpdu = bump_combine(sp.sdpdu, su, sp.ns, dn, sp.dndu);
+  dpdv = bump_combine(sp.sdpdv, sv, sp.ns, dn, sp.dndv);
 }
 
 // Bilinear weight products of pbrt-v4 Image::BilerpChannel: ((1-dx)(1-dy), dx(1-dy),
@@ -164,9 +185,9 @@ bool bump_frame(SurfacePoint sp, vec3 dpdu, vec3 dpdv, out BumpFrame f) {
 
 // bump_shading (bump-spec 6) of material m (the material after mix resolution) at sp: the
 // normal map if MATFLAG_NORMALMAP, else the bump if MATFLAG_BUMP (the displacement at the hit
-// is `disp`, at cu and cv `disp_uv`), else nothing. True if a bump or normal map gave the new
+// is `disp`, at the shifted contexts `disp_uv`), else nothing. True if a bump or normal map gave the new
 // shading geometry f; false (f = sp's) otherwise.
-bool bump_shading(uint m, SurfacePoint sp, float disp, vec2 disp_uv, out BumpFrame f) {
+bool bump_shading(uint m, SurfacePoint sp, float disp, vec4 disp_uv, out BumpFrame f) {
   f = BumpFrame(sp.ns, sp.t1, sp.t2, sp.sdpdu, sp.sdpdv);
   if (!BUMP_ENABLED && !NORMALMAP_ENABLED) return false;
   uint mflags = materials[m].flags;
@@ -174,7 +195,7 @@ bool bump_shading(uint m, SurfacePoint sp, float disp, vec2 disp_uv, out BumpFra
   if (NORMALMAP_ENABLED && (mflags & MATFLAG_NORMALMAP) != 0u) {
     if (!normal_map(sp, uint(materials[m].value[SLOT_NORMALMAP].x), dpdu, dpdv)) return false;
   } else if (bump_wanted(mflags)) {
-    bump_map(sp, disp, disp_uv.x, disp_uv.y, dpdu, dpdv);
+    bump_map(sp, disp, disp_uv, dpdu, dpdv);
   } else {
     return false;
   }

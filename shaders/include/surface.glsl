@@ -269,7 +269,7 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
     compute_differentials(sp.tex, du, dv, has_diff, rd);
     sp.sdpdu = du;
     sp.sdpdv = dv;
-    if ((FEATURES2 & (FEATURE2_BUMP | FEATURE2_NORMALMAP)) != 0u && vertex_normals)
+    if ((FEATURES2 & (FEATURE2_BUMP | FEATURE2_NORMALMAP | FEATURE2_VTURB)) != 0u && vertex_normals)
       shading_pair_vertex_normals(sp.ns, sp.sdpdu, sp.sdpdv);
   }
   return sp;

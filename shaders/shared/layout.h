@@ -107,7 +107,8 @@ BASALT_CONST uint FEATURE2_TEX_MAP_CURVED = 1u << 5;   // a spherical or cylindr
 BASALT_CONST uint FEATURE2_ENV_PORTAL = 1u << 6;       // an environment map seen through a portal
 BASALT_CONST uint FEATURE2_BUMP = 1u << 7;             // a bump-mapped material (bump-spec 4)
 BASALT_CONST uint FEATURE2_NORMALMAP = 1u << 8;        // a normal-mapped material (bump-spec 5)
-BASALT_CONST uint FEATURE2_COUNT = 9u;
+BASALT_CONST uint FEATURE2_VTURB = 1u << 9;            // vector-turbulence normals (bump-spec 9)
+BASALT_CONST uint FEATURE2_COUNT = 10u;
 
 // ---- primitive references ------------------------------------------------------------
 // A BVH leaf covers prim_refs[a .. a+b). A ref is a triangle index, or a sphere index
@@ -150,6 +151,8 @@ BASALT_CONST uint MATFLAG_BECKMANN = 1u << 2;    // microfacet lobes use Beckman
 BASALT_CONST uint MATFLAG_USE_REFLECTANCE = 1u << 3;  // conductors: Fresnel from reflectance
 BASALT_CONST uint MATFLAG_BUMP = 1u << 4;       // displacement slot given (docs/bump-spec.md 2)
 BASALT_CONST uint MATFLAG_NORMALMAP = 1u << 5;  // normal map in SLOT_NORMALMAP (bump-spec 2)
+BASALT_CONST uint MATFLAG_VTURB = 1u << 6;      // Shirley's vector turbulence: value[SLOT_NORMALMAP]
+                                                // .y = k1, .z = k2, .w = octaves (bump-spec 9)
 
 // Slots (index into Material.value / texture). Float parameters use x.
 BASALT_CONST uint SLOT_DIFFUSE_REFLECTANCE = 0u;
@@ -262,6 +265,8 @@ BASALT_CONST uint TEXFLAG_ALBEDO = 1u << 10;      // imagemap in an albedo slot:
 // Globals.texture_opts.x (quality knobs; docs/textures-spec.md 6)
 BASALT_CONST uint TEXOPT_DISABLE_FILTERING = 1u << 0;  // Option "disabletexturefiltering"
 BASALT_CONST uint TEXOPT_NOISE_SPLIT = 1u << 1;        // noise lookup point split in fp64
+BASALT_CONST uint TEXOPT_BUMP_CENTRAL = 1u << 2;       // bump: central differences (bump-spec 4.5)
+BASALT_CONST uint TEXOPT_BUMP_NO_DNDU = 1u << 3;       // bump: drop the d dn/du term (bump-spec 4.5)
 
 // Offsets into tex_data of the shared tables (Globals.tex_tables), docs/textures-spec.md 5.
 // tex_tables.x: noise permutation (512 floats holding integers), y: EWA weight table
@@ -310,7 +315,8 @@ struct Globals {
   vec4 min_pos_dy;
   vec4 min_dir_dx;
   vec4 min_dir_dy;
-  uvec4 texture_opts;      // x: TEXOPT_* bits, y: octave cap (0: none), z, w: unused
+  uvec4 texture_opts;      // x: TEXOPT_* bits, y: octave cap (0: none), z: fixed bump step
+                           // (float bits; 0: from the footprint, bump-spec 4.5), w: unused
   uvec4 tex_tables;        // offsets into tex_data (see EWA_LUT_SIZE above)
   mat4 camera_from_world;  // inverse of world_from_camera (Approximate_dp_dxy)
 };
