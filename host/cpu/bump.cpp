@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "cpu/mipmap.h"
+#include "cpu/noise.h"
 
 namespace basalt::cpu {
 namespace {
@@ -72,10 +73,13 @@ void bump_map(const Displacement& D, const SurfacePoint& sp, glm::vec3& dpdu, gl
     sv = (dV - d) / dv;
   }
   const glm::vec3 ns = sp.g.ns;
+  dpdu = sp.sdpdu + su * ns;
+  dpdv = sp.sdpdv + sv * ns;
   // Without the d dn/du term the displacement's own value does not enter (4.5).
-  const float dn = knobs.dndu ? d : 0.0f;
-  dpdu = (sp.sdpdu + su * ns) + dn * sp.g.dndu;
-  dpdv = (sp.sdpdv + sv * ns) + dn * sp.g.dndv;
+  if (knobs.dndu) {
+    dpdu = dpdu + d * sp.g.dndu;
+    dpdv = dpdv + d * sp.g.dndv;
+  }
 }
 
 void bump_map(const SceneTables& scene, const gpu::Material& m, const SurfacePoint& sp,
@@ -137,6 +141,28 @@ bool set_shading_geometry(SurfacePoint& sp, glm::vec3 dpdu, glm::vec3 dpdv) {
   return true;
 }
 
+bool vector_turbulence_shading(const SceneTables& scene, const gpu::Material& m,
+                               SurfacePoint& sp, glm::vec3& dpdu, glm::vec3& dpdv) {
+  // bump-spec 9 steps 1-4.
+  const glm::vec4 prm = m.value[gpu::SLOT_NORMALMAP];
+  const glm::vec3 q = prm.z * sp.tex.p;
+  const glm::vec3 v = vector_turbulence(scene, q, int(prm.w));
+  const glm::vec3 mv = sp.g.ns + prm.y * v;
+  const float m2 = glm::dot(mv, mv);
+  if (!usable_length2(m2)) return false;
+  const glm::vec3 nw = mv / std::sqrt(m2);
+  const float a2 = glm::dot(dpdu, dpdu);
+  if (!usable_length2(a2)) return false;
+  const float ulen = std::sqrt(a2);
+  const float vlen = std::sqrt(glm::dot(dpdv, dpdv));
+  const glm::vec3 a = normalize_div(dpdu - glm::dot(dpdu, nw) * nw) * ulen;
+  const glm::vec3 b = normalize_div(glm::cross(nw, a)) * vlen;
+  if (!set_shading_geometry(sp, a, b)) return false;
+  dpdu = a;
+  dpdv = b;
+  return true;
+}
+
 bool bump_shading(const SceneTables& scene, const gpu::Material& m, SurfacePoint& sp,
                   glm::vec3* dpdu_out, glm::vec3* dpdv_out) {
   // bump-spec 6 step 1: a normal map wins over a displacement (pbrt-v4 GetBSDF).
@@ -162,6 +188,9 @@ bool bump_shading(const SceneTables& scene, const gpu::Material& m, SurfacePoint
       changed = true;
     }
   }
+  // bump-spec 9: Shirley's vector turbulence on whatever the frame is now.
+  if ((m.flags & gpu::MATFLAG_VTURB) && vector_turbulence_shading(scene, m, sp, dpdu, dpdv))
+    changed = true;
   if (dpdu_out) *dpdu_out = dpdu;
   if (dpdv_out) *dpdv_out = dpdv;
   return changed;

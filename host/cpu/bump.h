@@ -54,9 +54,16 @@ bool normal_map(const SceneTables& scene, std::uint32_t level, const SurfacePoin
 ///        not finite.
 bool set_shading_geometry(SurfacePoint& sp, glm::vec3 dpdu, glm::vec3 dpdv);
 
+/// \brief bump-spec 9 (Shirley's vector turbulence, a basalt extension) of material \p m on
+///        sp's current shading normal and pair (\p dpdu, \p dpdv, updated): the normal
+///        perturbed by k1 vector_turbulence(k2 p), the pair rebuilt around it as bump-spec 5.4
+///        does, then set_shading_geometry. False (nothing changed) when degenerate.
+bool vector_turbulence_shading(const SceneTables& scene, const gpu::Material& m,
+                               SurfacePoint& sp, glm::vec3& dpdu, glm::vec3& dpdv);
+
 /// \brief bump-spec 6: for material \p m (already resolved from any mix), the normal map if
-///        MATFLAG_NORMALMAP, else the bump if MATFLAG_BUMP, applied to sp's shading normal and
-///        frame. Returns true when the frame changed. \p dpdu_out, \p dpdv_out (optional)
+///        MATFLAG_NORMALMAP, else the bump if MATFLAG_BUMP, then the vector turbulence if
+///        MATFLAG_VTURB, applied to sp's shading normal and frame. Returns true when the frame changed. \p dpdu_out, \p dpdv_out (optional)
 ///        receive dpdu', dpdv' when it did, else the unbumped shading pair of bump-spec 3.
 bool bump_shading(const SceneTables& scene, const gpu::Material& m, SurfacePoint& sp,
                   glm::vec3* dpdu_out = nullptr, glm::vec3* dpdv_out = nullptr);

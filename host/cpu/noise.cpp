@@ -166,6 +166,38 @@ float shirley_noise(const SceneTables& s, glm::vec3 p) {
   return sum;
 }
 
+glm::vec3 vector_noise(const SceneTables& s, glm::vec3 p) {
+  // Shirley's n_v (seed 002 11.4): the lattice and weights of shirley_noise, each corner
+  // contributing its gradient itself (docs/bump-spec.md 9).
+  if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) return glm::vec3(0.0f);
+  const float* g = s.tex_data.data() + s.globals.tex_tables.z;
+  const float* perm = g + 768;
+  auto phi = [perm](int i) { return int(perm[((i % 256) + 256) % 256]); };
+  const int ix = shirley_int(std::floor(p.x)), iy = shirley_int(std::floor(p.y)),
+            iz = shirley_int(std::floor(p.z));
+  glm::vec3 sum(0.0f);
+  for (int di = 0; di < 2; ++di)
+    for (int dj = 0; dj < 2; ++dj)
+      for (int dk = 0; dk < 2; ++dk) {
+        const int i = ix + di, j = iy + dj, k = iz + dk;
+        const float u = p.x - float(i), v = p.y - float(j), t = p.z - float(k);
+        const float* gr = g + 3 * phi(i + phi(j + phi(k)));
+        const float w = (shirley_weight(u) * shirley_weight(v)) * shirley_weight(t);
+        sum = sum + w * glm::vec3(gr[0], gr[1], gr[2]);
+      }
+  return sum;
+}
+
+glm::vec3 vector_turbulence(const SceneTables& s, glm::vec3 p, int octaves) {
+  glm::vec3 sum(0.0f);
+  float f = 1.0f;
+  for (int i = 0; i < octaves; ++i) {
+    sum = sum + vector_noise(s, f * p) / f;
+    f *= 2.0f;
+  }
+  return sum;
+}
+
 float shirley_turbulence(const SceneTables& s, glm::vec3 p, int octaves) {
   float sum = 0.0f, f = 1.0f;
   for (int i = 0; i < octaves; ++i) {

@@ -38,4 +38,11 @@ float shirley_noise(const SceneTables& s, glm::vec3 p);
 /// \brief Shirley's turbulence (seed 002 11.1.4): sum over i < octaves of |n(2^i p)| / 2^i.
 float shirley_turbulence(const SceneTables& s, glm::vec3 p, int octaves);
 
+/// \brief Shirley's vector noise n_v (seed 002 11.4, docs/bump-spec.md 9): the sum over the
+///        eight lattice corners of gradient x cubic weights; (0, 0, 0) for a non-finite p.
+glm::vec3 vector_noise(const SceneTables& s, glm::vec3 p);
+
+/// \brief Shirley's vector turbulence: sum over i < octaves of n_v(2^i p) / 2^i.
+glm::vec3 vector_turbulence(const SceneTables& s, glm::vec3 p, int octaves);
+
 }  // namespace basalt::cpu

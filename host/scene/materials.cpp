@@ -606,6 +606,27 @@ Material parse_material(const std::string& type_in, const ParamSet& ps, const So
       read_float(ps, name, "displacement", 0.0f, loc, m);
     }
   }
+  // docs/bump-spec.md 9 (basalt extension): Shirley's vector turbulence, constants only.
+  if (const Param* p = ps.lookup("normalturbulence", {"float"})) {
+    if (kind->tag == MATERIAL_MIX || kind->tag == MATERIAL_INTERFACE)
+      throw SceneError(p->loc, "a '" + type + "' material takes no " + pname("normalturbulence"));
+    m.vturb = true;
+    m.vturb_k1 = ps.get_float("normalturbulence", 0.0f);
+    if (!std::isfinite(m.vturb_k1))
+      throw SceneError(p->loc, pname("normalturbulence") + " must be finite");
+    m.vturb_k2 = ps.get_float("normalturbulencescale", 1.0f);
+    if (!(m.vturb_k2 > 0.0f) || !std::isfinite(m.vturb_k2))
+      throw SceneError(ps.loc_of("normalturbulencescale", loc),
+                       pname("normalturbulencescale") + " must be positive and finite");
+    m.vturb_octaves = ps.get_int("normalturbulenceoctaves", 4);
+    if (m.vturb_octaves < 1 || m.vturb_octaves > 16)
+      throw SceneError(ps.loc_of("normalturbulenceoctaves", loc),
+                       pname("normalturbulenceoctaves") + " must be in [1, 16]");
+  } else {
+    for (const char* name : {"normalturbulencescale", "normalturbulenceoctaves"})
+      if (const Param* q = ps.find(name))
+        throw SceneError(q->loc, pname(name) + " needs \"float normalturbulence\"");
+  }
   if (ctx.warnings) ps.report_unused(what, *ctx.warnings);
   return m;
 }
@@ -730,6 +751,12 @@ std::vector<gpu::Material> convert_materials(const Scene& scene, MixMode mode,
     if (m.normal_map_image >= 0) {
       g.flags |= gpu::MATFLAG_NORMALMAP;
       g.value[gpu::SLOT_NORMALMAP] = glm::vec4(float(tb.image_level(m.normal_map_image)), 0.0f, 0.0f, 0.0f);
+    }
+    if (m.vturb) {
+      g.flags |= gpu::MATFLAG_VTURB;
+      g.value[gpu::SLOT_NORMALMAP].y = m.vturb_k1;
+      g.value[gpu::SLOT_NORMALMAP].z = m.vturb_k2;
+      g.value[gpu::SLOT_NORMALMAP].w = float(m.vturb_octaves);
     }
     switch (g.type) {
       case MATERIAL_COATED_DIFFUSE:

@@ -131,6 +131,11 @@ struct Material {
   std::string normal_map;
   SourceLoc normal_map_loc;
   int normal_map_image = -1;
+  // docs/bump-spec.md 9 (extension): Shirley's vector-turbulence normals, on when vturb_k1 is
+  // given ("normalturbulence"), with frequency vturb_k2 and vturb_octaves octaves.
+  bool vturb = false;
+  float vturb_k1 = 0.0f, vturb_k2 = 1.0f;
+  int vturb_octaves = 4;
 };
 
 /// A tabulated BRDF in pbrt-v2's MERL regular half-angle layout (host/scene/merl.h).

@@ -786,7 +786,7 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
       // separately, as pbrt-v3 does.
       for (std::uint32_t c : {m.aux0, m.aux1})
         if (m.type == gpu::MATERIAL_MIX_WEIGHTED && c < t.materials.size() &&
-            (t.materials[c].flags & (gpu::MATFLAG_BUMP | gpu::MATFLAG_NORMALMAP)) &&
+            (t.materials[c].flags & (gpu::MATFLAG_BUMP | gpu::MATFLAG_NORMALMAP | gpu::MATFLAG_VTURB)) &&
             c < scene.materials.size())
           throw SceneError(scene.materials[c].loc,
                            "a bump or normal map on a child of a pbrt-v3 weighted mix is not "
@@ -804,6 +804,10 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
     } else if (m.flags & gpu::MATFLAG_BUMP) {
       t.features |= gpu::FEATURE_TEXTURES;
       t.features2 |= gpu::FEATURE2_BUMP;
+    }
+    if (m.flags & gpu::MATFLAG_VTURB) {  // bump-spec 9
+      t.features |= gpu::FEATURE_TEXTURES;
+      t.features2 |= gpu::FEATURE2_VTURB;
     }
     for (std::uint32_t slot = 0; slot < gpu::MATERIAL_SLOTS; ++slot) {
       const std::uint32_t root = m.texture[slot / 4][slot % 4];

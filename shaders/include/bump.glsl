@@ -57,10 +57,12 @@ TexCtx bump_shifted_ctx(SurfacePoint sp, uint k) {
   return c;
 }
 
-// dpdu' = (a + s n) + d b as bump-spec 4.4 writes it (left to right, no fma).
-vec3 bump_combine(vec3 a, float s, vec3 n, float d, vec3 b) {
-  precise vec3 r = (a + s * n) + d * b;
-  return r;
+// dpdu' = (a + s n) + d b as bump-spec 4.4 writes it (left to right, no fma); without the
+// d b term when !dndu (bump-spec 4.5).
+vec3 bump_combine(vec3 a, float s, vec3 n, float d, vec3 b, bool dndu) {
+  precise vec3 r = a + s * n;
+  precise vec3 rb = r + d * b;
+  return dndu ? rb : r;
 }
 
 // The slope (hi - lo) / h of a finite difference, no fma.
@@ -83,9 +85,9 @@ void bump_map(SurfacePoint sp, float disp, vec4 disp_uv, out vec3 dpdu, out vec3
     su = bump_slope(disp_uv.x, disp, st.x);
     sv = bump_slope(disp_uv.y, disp, st.y);
   }
-  float dn = (globals.texture_opts.x & TEXOPT_BUMP_NO_DNDU) != 0u ? 0.0 : disp;
-  dpdu = bump_combine(sp.sdpdu, su, sp.ns, dn, sp.dndu);
-  dpdv = bump_combine(sp.sdpdv, sv, sp.ns, dn, sp.dndv);
+  bool dndu = (globals.texture_opts.x & TEXOPT_BUMP_NO_DNDU) == 0u;
+  dpdu = bump_combine(sp.sdpdu, su, sp.ns, disp, sp.dndu, dndu);
+  dpdv = bump_combine(sp.sdpdv, sv, sp.ns, disp, sp.dndv, dndu);
 }
 
 // Bilinear weight products of pbrt-v4 Image::BilerpChannel: ((1-dx)(1-dy), dx(1-dy),

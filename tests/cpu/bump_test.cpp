@@ -26,7 +26,9 @@
 #include "cpu/surface.h"
 #include "common/test_util.h"
 #include "image/image_io.h"
+#include "cpu/noise.h"
 #include "scene/scene.h"
+#include "scene/textures.h"
 
 namespace basalt::test {
 namespace {
@@ -294,10 +296,67 @@ Material "diffuse" "float displacement" [ 0.1 ]
   }
 }
 
+/// Least-squares slope of ly against lx.
+double fitted_slope(const std::vector<double>& lx, const std::vector<double>& ly) {
+  double mx = 0, my = 0;
+  for (std::size_t i = 0; i < lx.size(); ++i) mx += lx[i], my += ly[i];
+  mx /= double(lx.size());
+  my /= double(ly.size());
+  double sxy = 0, sxx = 0;
+  for (std::size_t i = 0; i < lx.size(); ++i) {
+    sxy += (lx[i] - mx) * (ly[i] - my);
+    sxx += (lx[i] - mx) * (lx[i] - mx);
+  }
+  return sxy / sxx;
+}
+
+// Without the d dn/du term (--bump-dndu off, bump-spec 4.5) a constant displacement changes
+// nothing: both slopes are exactly 0, so dpdu' = sdpdu and dpdv' = sdpdv bit for bit, and the
+// normal and frame after bsdf_at are the unbumped ones within rounding (1e-6).
+TEST(Bump, ConstantDisplacementWithoutDnduChangesNothing) {
+  SceneTables t = tables_from_string(R"(
+LookAt -5 0 0  0 0 0  0 1 0
+Camera "perspective" "float fov" [ 30 ]
+Film "rgb" "integer xresolution" [ 64 ] "integer yresolution" [ 64 ]
+WorldBegin
+LightSource "infinite" "rgb L" [ 1 1 1 ]
+Material "diffuse" "float displacement" [ 0.1 ]
+Scale 2 2 2
+Shape "sphere" "float radius" [ 0.5 ]
+)");
+  apply_bump_knobs(t, false, false, 0.0f);
+  double worst_n = 0.0, worst_f = 0.0;
+  int n = 0;
+  for (std::uint32_t y = 0; y < 64; ++y)
+    for (std::uint32_t x = 0; x < 64; ++x) {
+      SurfacePoint sp;
+      glm::vec3 d;
+      if (!camera_hit(t, x, y, 0u, sp, d)) continue;
+      const SurfacePoint before = sp;
+      glm::vec3 du, dv;
+      bump_map(t, t.materials[sp.material], sp, du, dv);
+      ASSERT_EQ(du, before.sdpdu);
+      ASSERT_EQ(dv, before.sdpdv);
+      (void)bsdf_at(t, sp.material, sp, -d);
+      ASSERT_TRUE(sane_shading(sp));
+      worst_n = std::max(worst_n, dist(sp.g.ns, glm::dvec3(before.g.ns)));
+      worst_f = std::max({worst_f, dist(sp.frame.t1, glm::dvec3(before.frame.t1)),
+                          dist(sp.frame.t2, glm::dvec3(before.frame.t2))});
+      ++n;
+    }
+  std::printf("[ bump ] constant displacement without dn/du (%d hits): normal %.3g, frame "
+              "%.3g\n", n, worst_n, worst_f);
+  EXPECT_GT(n, 500);
+  EXPECT_LT(worst_n, 1e-6);
+  EXPECT_LT(worst_f, 1e-6);
+}
+
 // Forward differences (pbrt-v4 BumpMap) converge at first order: over a decade of steps
 // (1e-2 to 1e-3, 9 steps) the error of the bumped normal against the analytic one of a smooth
 // displacement, fitted as log(error) = a + k log(step), has slope k in [0.8, 1.2]. At three
-// points where d'' is not zero in either direction.
+// points where d'' is not zero in either direction. Central differences (bump-spec 4.5)
+// converge at second order: slope in [1.8, 2.2] over steps 1e-1 to 1e-2 (below that the fp32
+// rounding of the displacement values, ~3e-9 / h, meets the h^2 truncation).
 TEST(Bump, Convergence) {
   const double A = 0.05, B = 0.03;
   const Displacement D = [&](const TextureContext& c) {
@@ -305,36 +364,88 @@ TEST(Bump, Convergence) {
                  B * std::sin(2.0 * kPi * double(c.uv.y) + 0.4));
   };
   const glm::vec2 points[] = {{0.1f, 0.2f}, {0.35f, 0.6f}, {0.7f, 0.85f}};
-  for (const glm::vec2 uv : points) {
-    const double d_u = A * 2.0 * kPi * std::cos(2.0 * kPi * double(uv.x));
-    const double d_v = B * 2.0 * kPi * std::cos(2.0 * kPi * double(uv.y) + 0.4);
-    const glm::dvec3 exact = plane_normal(d_u, d_v, 1.0);
-    std::vector<double> lx, ly;
-    for (int i = 0; i <= 8; ++i) {
-      const float h = float(1e-2 * std::pow(10.0, -double(i) / 8.0));
-      SurfacePoint sp = plane_point(uv, 1.0f, h);
-      glm::vec3 dpdu, dpdv;
-      bump_map(D, sp, dpdu, dpdv);
-      ASSERT_TRUE(set_shading_geometry(sp, dpdu, dpdv));
-      lx.push_back(std::log(double(h)));
-      ly.push_back(std::log(dist(sp.g.ns, exact)));
+  for (const bool central : {false, true}) {
+    BumpKnobs knobs;
+    knobs.central = central;
+    const double h0 = central ? 1e-1 : 1e-2;
+    for (const glm::vec2 uv : points) {
+      const double d_u = A * 2.0 * kPi * std::cos(2.0 * kPi * double(uv.x));
+      const double d_v = B * 2.0 * kPi * std::cos(2.0 * kPi * double(uv.y) + 0.4);
+      const glm::dvec3 exact = plane_normal(d_u, d_v, 1.0);
+      std::vector<double> lx, ly;
+      for (int i = 0; i <= 8; ++i) {
+        const float h = float(h0 * std::pow(10.0, -double(i) / 8.0));
+        SurfacePoint sp = plane_point(uv, 1.0f, h);
+        glm::vec3 dpdu, dpdv;
+        bump_map(D, sp, dpdu, dpdv, knobs);
+        ASSERT_TRUE(set_shading_geometry(sp, dpdu, dpdv));
+        lx.push_back(std::log(double(h)));
+        ly.push_back(std::log(dist(sp.g.ns, exact)));
+      }
+      const double slope = fitted_slope(lx, ly);
+      std::printf("[ bump ] %s-difference convergence at (%.2f, %.2f): slope %.4f, error %.3g "
+                  "at %.0e, %.3g at %.0e\n", central ? "central" : "forward", uv.x, uv.y, slope,
+                  std::exp(ly.front()), h0, std::exp(ly.back()), h0 / 10.0);
+      const double order = central ? 2.0 : 1.0;
+      EXPECT_GE(slope, order - 0.2);
+      EXPECT_LE(slope, order + 0.2);
     }
-    // Least-squares slope of ly against lx.
-    double mx = 0, my = 0;
-    for (std::size_t i = 0; i < lx.size(); ++i) mx += lx[i], my += ly[i];
-    mx /= double(lx.size());
-    my /= double(ly.size());
-    double sxy = 0, sxx = 0;
-    for (std::size_t i = 0; i < lx.size(); ++i) {
-      sxy += (lx[i] - mx) * (ly[i] - my);
-      sxx += (lx[i] - mx) * (lx[i] - mx);
-    }
-    const double slope = sxy / sxx;
-    std::printf("[ bump ] convergence at (%.2f, %.2f): slope %.4f, error %.3g at 1e-2, %.3g at "
-                "1e-3\n", uv.x, uv.y, slope, std::exp(ly.front()), std::exp(ly.back()));
-    EXPECT_GE(slope, 0.8);
-    EXPECT_LE(slope, 1.2);
   }
+}
+
+// The knobs of bump-spec 4.5 reach the displacement as written: a fixed step h replaces the
+// footprint (and the fallback) in both parameters; central differences evaluate D at the hit
+// and at p +- h dpdu, uv +- (h, 0) and the same in v, and take (D+ - D-) / 2h; the default
+// evaluates the hit and the two forward contexts.
+TEST(Bump, KnobsShiftTheContextsAsSpecified) {
+  SurfacePoint sp = plane_point(glm::vec2(0.25f, 0.5f), 2.0f, 0.01f);
+  std::vector<TextureContext> seen;
+  const Displacement D = [&](const TextureContext& c) {
+    seen.push_back(c);
+    return 0.5f * c.uv.x + 0.25f * c.uv.y;  // linear: every scheme is exact
+  };
+  struct Case {
+    bool central;
+    float fixed;
+  };
+  for (const Case k : {Case{false, 0.0f}, Case{true, 0.0f}, Case{false, 0.125f},
+                       Case{true, 0.0625f}}) {
+    SCOPED_TRACE(testing::Message() << "central " << k.central << " fixed " << k.fixed);
+    BumpKnobs knobs;
+    knobs.central = k.central;
+    knobs.fixed_step = k.fixed;
+    seen.clear();
+    glm::vec3 dpdu, dpdv;
+    bump_map(D, sp, dpdu, dpdv, knobs);
+    const float h = k.fixed > 0.0f ? k.fixed : 0.01f;  // footprint: 0.5 (|0.01| + |0.01|)
+    ASSERT_EQ(seen.size(), k.central ? 5u : 3u);
+    std::vector<glm::vec2> uvs;
+    for (const TextureContext& c : seen) uvs.push_back(c.uv);
+    auto has = [&](glm::vec2 uv, glm::vec3 p) {
+      for (const TextureContext& c : seen)
+        if (c.uv == uv && c.p == p) return true;
+      return false;
+    };
+    EXPECT_TRUE(has(sp.tex.uv, sp.tex.p));
+    EXPECT_TRUE(has(sp.tex.uv + glm::vec2(h, 0.0f), sp.tex.p + h * sp.sdpdu));
+    EXPECT_TRUE(has(sp.tex.uv + glm::vec2(0.0f, h), sp.tex.p + h * sp.sdpdv));
+    if (k.central) {
+      EXPECT_TRUE(has(sp.tex.uv - glm::vec2(h, 0.0f), sp.tex.p - h * sp.sdpdu));
+      EXPECT_TRUE(has(sp.tex.uv - glm::vec2(0.0f, h), sp.tex.p - h * sp.sdpdv));
+    }
+    // d_u = 0.5, d_v = 0.25 exactly for a linear D (h a power of two keeps uv exact).
+    EXPECT_NEAR(dpdu.z, 0.5f, 1e-5f);
+    EXPECT_NEAR(dpdv.z, 0.25f, 1e-5f);
+  }
+  // The knobs travel in Globals.texture_opts (apply_bump_knobs) and bump_knobs reads them back.
+  SceneTables t = sine_plane_tables(3.0f);
+  EXPECT_EQ(bump_knobs(t.globals).central, false);
+  EXPECT_EQ(bump_knobs(t.globals).dndu, true);
+  EXPECT_EQ(bump_knobs(t.globals).fixed_step, 0.0f);
+  apply_bump_knobs(t, true, false, 1e-3f);
+  EXPECT_EQ(bump_knobs(t.globals).central, true);
+  EXPECT_EQ(bump_knobs(t.globals).dndu, false);
+  EXPECT_EQ(bump_knobs(t.globals).fixed_step, 1e-3f);
 }
 
 // ---- hard cases ------------------------------------------------------------------------------
@@ -927,6 +1038,209 @@ AttributeEnd
   int differ = 0;
   for (std::size_t i = 0; i < ref.size(); ++i) differ += with_bumps[i] != ref[i];
   EXPECT_GT(differ, int(ref.size()) / 4) << "the bumped scene should render differently";
+}
+
+
+// ---- vector turbulence (docs/bump-spec.md 9, Shirley 11.4) -----------------------------------
+
+/// Shirley's vector noise in double from the tables' gradients and permutation, written from
+/// seed 002 11.4 (the oracle of the vector-turbulence tests).
+glm::dvec3 vector_noise_oracle(const SceneTables& t, glm::dvec3 p) {
+  const float* g = t.tex_data.data() + t.globals.tex_tables.z;
+  const float* perm = g + 768;
+  auto phi = [perm](long i) { return long(perm[((i % 256) + 256) % 256]); };
+  auto omega = [](double x) {
+    const double a = std::fabs(x);
+    return a < 1.0 ? 2.0 * a * a * a - 3.0 * a * a + 1.0 : 0.0;
+  };
+  glm::dvec3 sum(0.0);
+  const long ix = long(std::floor(p.x)), iy = long(std::floor(p.y)), iz = long(std::floor(p.z));
+  for (long i = ix; i <= ix + 1; ++i)
+    for (long j = iy; j <= iy + 1; ++j)
+      for (long k = iz; k <= iz + 1; ++k) {
+        const float* gr = g + 3 * phi(i + phi(j + phi(k)));
+        sum += omega(p.x - double(i)) * omega(p.y - double(j)) * omega(p.z - double(k)) *
+               glm::dvec3(gr[0], gr[1], gr[2]);
+      }
+  return sum;
+}
+
+/// sum over i < octaves of vector_noise_oracle(2^i p) / 2^i.
+glm::dvec3 vector_turbulence_oracle(const SceneTables& t, glm::dvec3 p, int octaves) {
+  glm::dvec3 sum(0.0);
+  for (int i = 0; i < octaves; ++i) sum += vector_noise_oracle(t, std::ldexp(1.0, i) * p) /
+                                            std::ldexp(1.0, i);
+  return sum;
+}
+
+/// A sphere of radius 1.6 (Shirley's Figure 11.12) with "normalturbulence" k1 and scale k2
+/// (and an optional extra material line), seen from -z at 64 x 64.
+SceneTables vturb_sphere(float k1, float k2, const std::string& extra = "",
+                         const std::string& shape = "Shape \"sphere\" \"float radius\" [ 1.6 ]") {
+  return tables_from_string(R"(
+LookAt 0 0 -8  0 0 0  0 1 0
+Camera "perspective" "float fov" [ 30 ]
+Film "rgb" "integer xresolution" [ 64 ] "integer yresolution" [ 64 ]
+WorldBegin
+LightSource "distant" "point3 from" [ 0 10 0 ] "point3 to" [ 0 0 0 ]
+Material "diffuse" "float normalturbulence" [ )" + std::to_string(k1) +
+                            R"( ] "float normalturbulencescale" [ )" + std::to_string(k2) +
+                            " ] " + extra + "\n" + shape + "\n");
+}
+
+// At a lattice point the cubic weight is 1 at that corner and 0 at the seven others, so the
+// vector noise is the corner's gradient: a unit vector, equal to the table entry; in between it
+// agrees with the double-precision oracle within 2e-6 (|p| <= 100, 10^4 points) and is 0 for
+// non-finite points.
+TEST(VectorTurbulence, NoiseMatchesLatticeAndOracle) {
+  const SceneTables t = vturb_sphere(0.08f, 8.0f);
+  const float* g = t.tex_data.data() + t.globals.tex_tables.z;
+  const float* perm = g + 768;
+  auto phi = [perm](int i) { return int(perm[((i % 256) + 256) % 256]); };
+  for (int i = -3; i <= 3; ++i)
+    for (int j = -3; j <= 3; ++j)
+      for (int k = -3; k <= 3; ++k) {
+        const glm::vec3 v = vector_noise(t, glm::vec3(float(i), float(j), float(k)));
+        const float* gr = g + 3 * phi(i + phi(j + phi(k)));
+        ASSERT_EQ(v, glm::vec3(gr[0], gr[1], gr[2])) << i << " " << j << " " << k;
+        ASSERT_NEAR(glm::length(v), 1.0f, 1e-6f);
+      }
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-100.0f, 100.0f);
+  double worst = 0.0, worst_t = 0.0;
+  for (int n = 0; n < 10000; ++n) {
+    const glm::vec3 p(u(rng), u(rng), u(rng));
+    worst = std::max(worst, dist(vector_noise(t, p), vector_noise_oracle(t, glm::dvec3(p))));
+    const glm::vec3 q = p * 0.25f;
+    worst_t = std::max(worst_t, dist(vector_turbulence(t, q, 4),
+                                     vector_turbulence_oracle(t, glm::dvec3(q), 4)));
+  }
+  std::printf("[ vturb ] vector noise vs double oracle: %.3g; 4-octave turbulence: %.3g\n", worst,
+              worst_t);
+  EXPECT_LT(worst, 2e-6);
+  EXPECT_LT(worst_t, 4e-6);
+  EXPECT_EQ(vector_noise(t, glm::vec3(NAN, 0.0f, 0.0f)), glm::vec3(0.0f));
+  EXPECT_EQ(vector_noise(t, glm::vec3(0.0f, INFINITY, 0.0f)), glm::vec3(0.0f));
+}
+
+// Through the parser, the tables and bsdf_at: at every camera hit of Shirley's sphere the
+// shading normal is normalize(n0 + k1 vectorTurbulence(k2 p)) (the oracle in double) within
+// 1e-5, the frame is sane and faces ng; with k1 = 0 the normal and frame are the unperturbed
+// ones within 1e-6. On a mesh sphere with vertex normals and on a sphere that is also bumped
+// (the turbulence perturbs the bumped normal) the same holds with n0 the normal before it.
+TEST(VectorTurbulence, NormalIsPerturbedAsShirley) {
+  struct Case {
+    const char* name;
+    float k1;
+    std::string extra, shape;
+  };
+  const std::string mesh = R"(Shape "trianglemesh" "integer indices" [ 0 1 2  0 2 3 ]
+  "point3 P" [ -2 -2 0  2 -2 0  2 2 0  -2 2 0 ] "normal N" [ -0.3 -0.3 -1  0.3 -0.3 -1  0.3 0.3 -1  -0.3 0.3 -1 ]
+  "point2 uv" [ 0 0 1 0 1 1 0 1 ])";
+  const Case cases[] = {
+      {"sphere k1 = 0.24", 0.24f, "", "Shape \"sphere\" \"float radius\" [ 1.6 ]"},
+      {"sphere k1 = 0", 0.0f, "", "Shape \"sphere\" \"float radius\" [ 1.6 ]"},
+      {"mesh with normals", 0.08f, "", mesh},
+      {"bumped sphere", 0.08f, "\"float displacement\" [ 0.2 ]",
+       "Shape \"sphere\" \"float radius\" [ 1.6 ]"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const SceneTables t = vturb_sphere(c.k1, 8.0f, c.extra, c.shape);
+    ASSERT_NE(t.features2 & gpu::FEATURE2_VTURB, 0u);
+    double worst = 0.0;
+    int n = 0;
+    for (std::uint32_t y = 0; y < 64; ++y)
+      for (std::uint32_t x = 0; x < 64; ++x) {
+        SurfacePoint sp;
+        glm::vec3 d;
+        if (!camera_hit(t, x, y, 0u, sp, d)) continue;
+        const gpu::Material& m = t.materials[sp.material];
+        // n0: the normal after the bump (if any), from the same code path without turbulence.
+        gpu::Material plain = m;
+        plain.flags &= ~gpu::MATFLAG_VTURB;
+        SurfacePoint sp0 = sp;
+        bump_shading(t, plain, sp0);
+        const SurfacePoint before = sp0;
+        (void)bsdf_at(t, sp.material, sp, -d);
+        ASSERT_TRUE(sane_shading(sp));
+        glm::dvec3 expect = glm::dvec3(before.g.ns) +
+                            double(c.k1) * vector_turbulence_oracle(
+                                               t, 8.0 * glm::dvec3(sp.tex.p), 4);
+        expect = glm::normalize(expect);
+        if (glm::dot(expect, glm::dvec3(sp.g.ng)) < 0.0) expect = -expect;
+        worst = std::max(worst, dist(sp.g.ns, expect));
+        if (c.k1 == 0.0f) {
+          ASSERT_LT(dist(sp.frame.t1, glm::dvec3(before.frame.t1)), 1e-6);
+          ASSERT_LT(dist(sp.g.ns, glm::dvec3(before.g.ns)), 1e-6);
+        }
+        ++n;
+      }
+    std::printf("[ vturb ] %s (%d hits): normal vs oracle %.3g\n", c.name, n, worst);
+    EXPECT_GT(n, 400);
+    EXPECT_LT(worst, 1e-5);
+  }
+}
+
+// Extreme inputs: 10^6 random hits with points up to 1e30, amplitudes up to 1e30 (and
+// negative), frequencies from 1e-30 to 1e30, zero and non-finite texture points give a finite,
+// unit, face-forwarded shading normal and frame (or leave the frame as it was).
+TEST(VectorTurbulence, RandomExtremeInputs) {
+  SceneTables t = vturb_sphere(0.1f, 1.0f);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f), e(-30.0f, 30.0f);
+  gpu::Material m = t.materials[0];
+  for (gpu::Material& mm : t.materials)
+    if (mm.flags & gpu::MATFLAG_VTURB) m = mm;
+  ASSERT_NE(m.flags & gpu::MATFLAG_VTURB, 0u);
+  int changed = 0;
+  for (int n = 0; n < 1000000; ++n) {
+    glm::vec3 ng = glm::normalize(glm::vec3(u(rng), u(rng), u(rng)) + glm::vec3(0, 0, 1e-3f));
+    SurfacePoint sp = plane_point(glm::vec2(0.5f), 1.0f, 0.0f);
+    sp.g.ng = sp.g.ns = ng;
+    sp.sdpdu = glm::vec3(u(rng), u(rng), u(rng)) * std::pow(10.0f, e(rng) / 3.0f);
+    sp.sdpdv = glm::cross(ng, sp.sdpdu);
+    sp.frame = shading_frame(ng, sp.sdpdu);
+    const float scale = std::pow(10.0f, e(rng));
+    sp.tex.p = glm::vec3(u(rng), u(rng), u(rng)) * scale;
+    if (n % 97 == 0) sp.tex.p.x = NAN;
+    if (n % 89 == 0) sp.tex.p = glm::vec3(0.0f);
+    m.value[gpu::SLOT_NORMALMAP].y = u(rng) * std::pow(10.0f, e(rng));
+    m.value[gpu::SLOT_NORMALMAP].z = std::pow(10.0f, e(rng));
+    m.value[gpu::SLOT_NORMALMAP].w = float(1 + n % 8);
+    changed += bump_shading(t, m, sp);
+    ASSERT_TRUE(sane_shading(sp, 1e-4)) << "at sample " << n;
+  }
+  std::printf("[ vturb ] 10^6 extreme inputs: %d changed the frame, none non-finite\n", changed);
+  EXPECT_GT(changed, 100000);
+}
+
+// The parameters are checked with located errors, and a material without them is untouched.
+TEST(VectorTurbulence, ParameterErrors) {
+  const std::string head = R"(Camera "perspective"
+WorldBegin
+Material "diffuse" )";
+  const std::string tail = "\nShape \"sphere\"\n";
+  const char* bad[] = {
+      "\"float normalturbulencescale\" [ 2 ]",
+      "\"float normalturbulence\" [ 0.1 ] \"float normalturbulencescale\" [ 0 ]",
+      "\"float normalturbulence\" [ 0.1 ] \"float normalturbulencescale\" [ -1 ]",
+      "\"float normalturbulence\" [ 0.1 ] \"integer normalturbulenceoctaves\" [ 0 ]",
+      "\"float normalturbulence\" [ 0.1 ] \"integer normalturbulenceoctaves\" [ 17 ]",
+      "\"texture normalturbulence\" \"t\"",
+  };
+  for (const char* b : bad) {
+    SCOPED_TRACE(b);
+    try {
+      (void)tables_from_string(head + b + tail);
+      ADD_FAILURE() << "accepted";
+    } catch (const SceneError& e) {
+      EXPECT_NE(std::string(e.what()).find("normalturbulence"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(":3:"), std::string::npos) << e.what();
+    }
+  }
+  const SceneTables plain = tables_from_string(head + tail);
+  EXPECT_EQ(plain.features2 & gpu::FEATURE2_VTURB, 0u);
 }
 
 }  // namespace
