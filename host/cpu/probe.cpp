@@ -187,18 +187,43 @@ std::vector<gpu::ProbeOut> probe(const SceneTables& scene, const std::vector<gpu
         // bump_shading at the first hit of the camera ray of pixel (key.z, key.w), sample
         // bits(extra.x), with the camera ray's differentials as the path tracer has them, for
         // the material after mix resolution (wo = -d) (layout.h PROBE_BUMP).
-        const CameraRay c = camera_ray_differential(scene, q.key.z, q.key.w,
-                                                    std::bit_cast<std::uint32_t>(q.extra.x));
-        const Ray cam{c.o, c.d, FLT_MAX};
-        RayDifferential diff{c.rx_o, c.rx_d, c.ry_o, c.ry_d};
-        scale_differentials(diff, c.o, c.d, scene.globals.min_dir_dx.w);
-        const Hit h = intersect_closest(scene, cam);
-        o.u.x = h.prim;
-        if (!h.valid()) break;
-        SurfacePoint sp = surface_point(scene, cam, h, &diff);
+        SurfacePoint sp;
+        glm::vec3 wo;
+        if (q.key.y == 1u) {
+          // The synthetic surface point of layout.h PROBE_BUMP key.y = 1.
+          sp.g.p = glm::vec3(q.o_tmax);
+          sp.material = q.key.z;
+          sp.scene = &scene;
+          sp.g.ng = glm::vec3(q.d);
+          sp.g.ns = glm::vec3(q.extra3);
+          sp.g.uv = glm::vec2(q.o_tmax.w, q.d.w);
+          sp.sdpdu = sp.g.dpdu = glm::vec3(q.extra);
+          sp.sdpdv = sp.g.dpdv = glm::vec3(q.extra2);
+          sp.g.dndu = q.extra3.w * glm::vec3(q.extra);
+          sp.g.dndv = q.extra3.w * glm::vec3(q.extra2);
+          sp.frame = shading_frame(sp.g.ns, sp.sdpdu);
+          sp.tex.p = sp.g.p;
+          sp.tex.n = sp.g.ng;
+          sp.tex.uv = sp.g.uv;
+          sp.tex.dudx = sp.tex.dudy = q.extra.w;
+          sp.tex.dvdx = sp.tex.dvdy = q.extra2.w;
+          wo = sp.g.ns;
+          o.u.x = 0u;
+        } else {
+          const CameraRay c = camera_ray_differential(scene, q.key.z, q.key.w,
+                                                      std::bit_cast<std::uint32_t>(q.extra.x));
+          const Ray cam{c.o, c.d, FLT_MAX};
+          RayDifferential diff{c.rx_o, c.rx_d, c.ry_o, c.ry_d};
+          scale_differentials(diff, c.o, c.d, scene.globals.min_dir_dx.w);
+          const Hit h = intersect_closest(scene, cam);
+          o.u.x = h.prim;
+          if (!h.valid()) break;
+          sp = surface_point(scene, cam, h, &diff);
+          wo = -c.d;
+        }
         glm::vec3 dpdu = sp.sdpdu, dpdv = sp.sdpdv;
         bool changed = false;
-        const std::uint32_t idx = resolve_mix(scene, sp.material, sp, -c.d);
+        const std::uint32_t idx = resolve_mix(scene, sp.material, sp, wo);
         if (idx != gpu::INVALID_INDEX)
           changed = bump_shading(scene, scene.materials[idx], sp, &dpdu, &dpdv);
         o.f0 = glm::vec4(sp.g.ns, 0.0f);

@@ -92,9 +92,9 @@ void slots_resolve(uint m, SurfacePoint sp) {
 }
 
 // The shading geometry of the last bsdf_at with lobes after bump_shading (docs/bump-spec.md
-// 6), and whether a bump or normal map changed it: the caller moves bsdf_frame into its
-// SurfacePoint when bsdf_bumped (bsdf_at takes the SurfacePoint by value: an inout struct there
-// made the render pipeline take 25% longer to compile on lavapipe).
+// 6, 9), and whether a bump, normal map or vector turbulence changed it: the caller moves
+// bsdf_frame into its SurfacePoint when bsdf_bumped (bsdf_at takes the SurfacePoint by value:
+// an inout struct there made the render pipeline take 25% longer to compile on lavapipe).
 bool bsdf_bumped;
 BumpFrame bsdf_frame;
 
@@ -378,12 +378,13 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
 // (section 3), or those of both MIX_WEIGHTED children with weights x (1 - amount) and
 // x amount. One loop visits each material involved and resolves its slots at one call site
 // of slots_resolve (see slot_cache), and add_material_lobes has one call site too.
-// With lobes, the chosen material's bump or normal map (docs/bump-spec.md 6) then sets
-// bsdf_bumped and bsdf_frame, the shading geometry the caller uses from then on.
+// With lobes, the chosen material's bump or normal map and vector turbulence
+// (docs/bump-spec.md 6, 9) then set bsdf_bumped and bsdf_frame, the shading geometry the
+// caller uses from then on.
 Bsdf bsdf_at(uint material, SurfacePoint sp, vec3 wo_world, bool lobes) {
   Bsdf b = Bsdf(0u, 0u, INVALID_INDEX, MATERIAL_NONE);
   uint m = material;
-  if (BUMP_ENABLED || NORMALMAP_ENABLED) bsdf_bumped = false;
+  if (BUMP_ENABLED || NORMALMAP_ENABLED || VTURB_ENABLED) bsdf_bumped = false;
 #if !BSDF_ALL_MATERIALS
   if (!material_valid(m)) return b;
   b.material = m;
@@ -435,8 +436,10 @@ Bsdf bsdf_at(uint material, SurfacePoint sp, vec3 wo_world, bool lobes) {
   }
 #endif
   // The chosen material's bump or normal map, from its slots as slots_resolve left them (a
-  // weighted mix, whose children are resolved after it, has neither: the host refuses them).
-  if ((BUMP_ENABLED || NORMALMAP_ENABLED) && lobes && b.material != INVALID_INDEX)
+  // weighted mix, whose children are resolved after it, has neither: the host refuses them),
+  // then its vector turbulence (docs/bump-spec.md 9).
+  if ((BUMP_ENABLED || NORMALMAP_ENABLED || VTURB_ENABLED) && lobes &&
+      b.material != INVALID_INDEX)
     bsdf_bumped = bump_shading(b.material, sp, slot_cache[SLOT_DISPLACEMENT].x, bump_disp_uv,
                                bsdf_frame);
   return b;

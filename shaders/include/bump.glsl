@@ -5,8 +5,8 @@
 // Compile-time note (see bsdf.glsl): the displacement texture is evaluated at its three
 // contexts by slots_resolve's one texture-interpreter loop (two extra iterations take the
 // shifted contexts of bump_shifted_ctx); bump_map only combines the three values. Everything
-// here is gated by FEATURES2 & (FEATURE2_BUMP | FEATURE2_NORMALMAP), so scenes without bump or
-// normal maps compile it away.
+// here is gated by FEATURES2 & (FEATURE2_BUMP | FEATURE2_NORMALMAP | FEATURE2_VTURB), so scenes
+// without bump or normal maps or vector turbulence compile it away.
 #ifndef BASALT_BUMP_GLSL
 #define BASALT_BUMP_GLSL
 
@@ -14,10 +14,13 @@
 #include "sampling.glsl"
 #include "mipmap.glsl"
 #include "surface.glsl"
+#include "noise.glsl"
 
 // True if the scene may bump (FEATURE2_BUMP) or normal-map (FEATURE2_NORMALMAP).
 const bool BUMP_ENABLED = (FEATURES2 & FEATURE2_BUMP) != 0u;
 const bool NORMALMAP_ENABLED = (FEATURES2 & FEATURE2_NORMALMAP) != 0u;
+// True if the scene may perturb normals by vector turbulence (FEATURE2_VTURB, bump-spec 9).
+const bool VTURB_ENABLED = (FEATURES2 & FEATURE2_VTURB) != 0u;
 
 // True if material flags `mflags` ask for the bump of bump-spec 4 (a displacement and no
 // normal map: the normal map wins, bump-spec 1).
@@ -112,6 +115,17 @@ vec3 gram_schmidt(vec3 v, vec3 n) {
   return r;
 }
 
+// The pair of bump-spec 5.4 that gives the unit normal nw, with the lengths of (a, b):
+// a' = normalize(a - dot(a, nw) nw) |a|, b' = normalize(cross(nw, a')) |b|.
+void normal_pair(vec3 a, vec3 b, vec3 nw, out vec3 dpdu, out vec3 dpdv) {
+  float ulen = sqrt(dot_exact(a, a));
+  float vlen = sqrt(dot_exact(b, b));
+  vec3 gs = gram_schmidt(a, nw);
+  dpdu = (gs / sqrt(dot_exact(gs, gs))) * ulen;
+  vec3 cr = cross_exact(nw, dpdu);
+  dpdv = (cr / sqrt(dot_exact(cr, cr))) * vlen;
+}
+
 // The normal-mapped shading pair of bump-spec 5 (pbrt-v4 NormalMap) from MipLevel `level`
 // (level 0 of the normal map, 3 channels); false (no normal map at this hit) where the tangent
 // normal is zero or not finite or sdpdu is zero (bump-spec 5.2, 5.3).
@@ -148,17 +162,43 @@ bool normal_map(SurfacePoint sp, uint level, out vec3 dpdu, out vec3 dpdv) {
   vec3 fy_ = cross_exact(sp.ns, fx_);
   vec3 nw = frame_from_local(fx_, fy_, sp.ns, nt);
   // 5.4: the pair that gives nw, with the lengths of the unbumped one.
-  float ulen = sqrt(u2);
-  float vlen = sqrt(dot_exact(sp.sdpdv, sp.sdpdv));
-  vec3 gs = gram_schmidt(sp.sdpdu, nw);
-  dpdu = (gs / sqrt(dot_exact(gs, gs))) * ulen;
-  vec3 cr = cross_exact(nw, dpdu);
-  dpdv = (cr / sqrt(dot_exact(cr, cr))) * vlen;
+  normal_pair(sp.sdpdu, sp.sdpdv, nw, dpdu, dpdv);
   return true;
 }
 
-// The shading geometry after a bump or normal map (docs/bump-spec.md 6.4): normal, frame
-// (t1, t2) and the pair (dpdu', dpdv') (pbrt-v4 shading.n, shading.dpdu, shading.dpdv).
+// m = n0 + k1 v of bump-spec 9.2 (k1 v first, then the sum; no fma).
+vec3 vturb_offset(vec3 n0, float k1, vec3 v) {
+  precise vec3 m = n0 + k1 * v;
+  return m;
+}
+
+// The scaled lookup point q = k2 p of bump-spec 9.1 (one product per component).
+vec3 vturb_point(float k2, vec3 p) {
+  precise vec3 q = k2 * p;
+  return q;
+}
+
+// The vector-turbulence pair of bump-spec 9.1-9.3 (Shirley's n += k1 vectorTurbulence(k2 p))
+// from the shading normal n0 and pair (a, b) after the bump or normal map, at the texture
+// context's point p: false (nothing changes) where m = n0 + k1 v is below FLT_MIN in squared
+// length or not finite, or a is.
+bool vturb_pair(vec3 n0, vec3 a, vec3 b, vec3 p, float k1, float k2, int octaves,
+                out vec3 dpdu, out vec3 dpdv) {
+  dpdu = a;
+  dpdv = b;
+  vec3 v = vector_turbulence(vturb_point(k2, p), octaves);
+  vec3 m = vturb_offset(n0, k1, v);
+  float m2 = dot_exact(m, m);
+  if (!(m2 >= FLT_MIN) || isinf(m2)) return false;
+  vec3 nw = m / sqrt(m2);
+  if (dot_exact(a, a) < FLT_MIN) return false;
+  normal_pair(a, b, nw, dpdu, dpdv);
+  return true;
+}
+
+// The shading geometry after a bump, normal map or vector turbulence (docs/bump-spec.md 6.4,
+// 9): normal, frame (t1, t2) and the pair (dpdu', dpdv') (pbrt-v4 shading.n, shading.dpdu,
+// shading.dpdv).
 struct BumpFrame {
   vec3 ns;
   vec3 t1;
@@ -167,41 +207,61 @@ struct BumpFrame {
   vec3 dpdv;
 };
 
-// The shading geometry of the new pair (dpdu, dpdv) at sp as bump-spec 6.2-6.4 (pbrt-v4
-// SetShadingGeometry(ns, dpdu, dpdv, dndu, dndv, false)): n' = normalize(cross(dpdu, dpdv))
-// face-forwarded to sp.ng, the frame shading_frame(n', dpdu). False where n' is zero or not
-// finite (the hit keeps its unbumped frame).
-bool bump_frame(SurfacePoint sp, vec3 dpdu, vec3 dpdv, out BumpFrame f) {
-  f = BumpFrame(sp.ns, sp.t1, sp.t2, sp.sdpdu, sp.sdpdv);
+// The normal of the new pair (dpdu, dpdv) as bump-spec 6.2-6.3 (pbrt-v4
+// SetShadingGeometry(ns, dpdu, dpdv, dndu, dndv, false)): n = normalize(cross(dpdu, dpdv))
+// face-forwarded to ng. False where n is zero or not finite (the frame stays as it was).
+bool bump_normal(vec3 ng, vec3 dpdu, vec3 dpdv, out vec3 n) {
   vec3 c = cross_exact(dpdu, dpdv);
   float l2 = dot_exact(c, c);
-  vec3 n = c / sqrt(l2);
+  n = c / sqrt(l2);
+  // Bump-spec 6.2: a squared length below FLT_MIN (zero, or subnormal, which GPUs may flush)
+  // or not finite keeps the frame.
+  if (!(l2 >= FLT_MIN) || isinf(l2)) return false;
   if (any(isnan(n)) || any(isinf(n)) || (n.x == 0.0 && n.y == 0.0 && n.z == 0.0)) return false;
-  if (dot_exact(n, sp.ng) < 0.0) n = -n;
-  f.ns = n;
-  shading_frame(n, dpdu, f.t1, f.t2);
-  f.dpdu = dpdu;
-  f.dpdv = dpdv;
+  if (dot_exact(n, ng) < 0.0) n = -n;
   return true;
 }
 
 // bump_shading (bump-spec 6) of material m (the material after mix resolution) at sp: the
 // normal map if MATFLAG_NORMALMAP, else the bump if MATFLAG_BUMP (the displacement at the hit
-// is `disp`, at the shifted contexts `disp_uv`), else nothing. True if a bump or normal map gave the new
-// shading geometry f; false (f = sp's) otherwise.
+// is `disp`, at the shifted contexts `disp_uv`), else nothing; then, if MATFLAG_VTURB, the
+// vector turbulence of bump-spec 9 on the result. True if either gave the new shading
+// geometry f (bump-spec 6.4: normal, shading_frame(n', dpdu') and pair); false (f = sp's)
+// otherwise. The frame is built once, from the last pair that changed the normal (bump-spec 9
+// needs only the normal and pair of the step before it).
 bool bump_shading(uint m, SurfacePoint sp, float disp, vec4 disp_uv, out BumpFrame f) {
   f = BumpFrame(sp.ns, sp.t1, sp.t2, sp.sdpdu, sp.sdpdv);
-  if (!BUMP_ENABLED && !NORMALMAP_ENABLED) return false;
+  if (!BUMP_ENABLED && !NORMALMAP_ENABLED && !VTURB_ENABLED) return false;
   uint mflags = materials[m].flags;
-  vec3 dpdu, dpdv;
+  vec3 dpdu, dpdv, n;
+  bool paired = false;
   if (NORMALMAP_ENABLED && (mflags & MATFLAG_NORMALMAP) != 0u) {
-    if (!normal_map(sp, uint(materials[m].value[SLOT_NORMALMAP].x), dpdu, dpdv)) return false;
+    paired = normal_map(sp, uint(materials[m].value[SLOT_NORMALMAP].x), dpdu, dpdv);
   } else if (bump_wanted(mflags)) {
     bump_map(sp, disp, disp_uv, dpdu, dpdv);
-  } else {
-    return false;
+    paired = true;
   }
-  return bump_frame(sp, dpdu, dpdv, f);
+  bool changed = false;
+  if (paired && bump_normal(sp.ng, dpdu, dpdv, n)) {
+    f.ns = n;
+    f.dpdu = dpdu;
+    f.dpdv = dpdv;
+    changed = true;
+  }
+  // Bump-spec 9, from the normal and pair above (sp's where nothing changed them); a
+  // degenerate result keeps them.
+  if (VTURB_ENABLED && (mflags & MATFLAG_VTURB) != 0u) {
+    vec4 vt = materials[m].value[SLOT_NORMALMAP];
+    if (vturb_pair(f.ns, f.dpdu, f.dpdv, sp.tex.p, vt.y, vt.z, int(vt.w), dpdu, dpdv) &&
+        bump_normal(sp.ng, dpdu, dpdv, n)) {
+      f.ns = n;
+      f.dpdu = dpdu;
+      f.dpdv = dpdv;
+      changed = true;
+    }
+  }
+  if (changed) shading_frame(f.ns, f.dpdu, f.t1, f.t2);
+  return changed;
 }
 
 #endif

@@ -83,10 +83,11 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
     // Interface (no surface): the path passes through with depth unchanged (pbrt-v4
     // PathIntegrator's SkipIntersection; at most 64 crossings).
     // The BSDF (mixes resolved; lobes only if the path goes on from here). A bump or normal
-    // map of the chosen material replaces sp's shading normal and frame (docs/bump-spec.md 6),
-    // which the local frame, the cosines and the specular differentials below use.
+    // map or vector turbulence of the chosen material replaces sp's shading normal and frame
+    // (docs/bump-spec.md 6, 9), which the local frame, the cosines and the specular
+    // differentials below use.
     Bsdf bsdf = bsdf_at(sp.material, sp, wo, depth < max_depth);
-    if ((BUMP_ENABLED || NORMALMAP_ENABLED) && bsdf_bumped) {
+    if ((BUMP_ENABLED || NORMALMAP_ENABLED || VTURB_ENABLED) && bsdf_bumped) {
       sp.ns = bsdf_frame.ns;
       sp.t1 = bsdf_frame.t1;
       sp.t2 = bsdf_frame.t2;

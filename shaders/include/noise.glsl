@@ -235,4 +235,42 @@ float shirley_noise_sum(vec3 p, int octaves, bool turb) {
 // Shirley's turbulence nt(p) = sum for i < octaves of |n(2^i p)| / 2^i.
 float shirley_turbulence(vec3 p, int octaves) { return shirley_noise_sum(p, octaves, true); }
 
+// Shirley's vector noise n_v(p) (docs/bump-spec.md 9): the lattice and weights of
+// shirley_noise with the gradient G itself in place of its dot product, corners c = 0..7,
+// sum = sum + ((w(u) w(v)) w(t)) G per component from 0. (0, 0, 0) when p is not finite.
+vec3 vector_noise(vec3 p) {
+  if (any(isnan(p)) || any(isinf(p))) return vec3(0.0);
+  int ix = shirley_int(floor(p.x)), iy = shirley_int(floor(p.y)), iz = shirley_int(floor(p.z));
+  uint g0 = globals.tex_tables.z;
+  precise vec3 sum = vec3(0.0);
+  [[dont_unroll]] for (int c = 0; c < 8; ++c) {
+    int i = ix + (c >> 2), j = iy + ((c >> 1) & 1), k = iz + (c & 1);
+    precise float u = p.x - float(i);
+    precise float v = p.y - float(j);
+    precise float t = p.z - float(k);
+    uint g = g0 + 3u * uint(shirley_perm(i + shirley_perm(j + shirley_perm(k))));
+    vec3 grad = vec3(tex_data[g], tex_data[g + 1u], tex_data[g + 2u]);
+    precise float w = (shirley_weight(u) * shirley_weight(v)) * shirley_weight(t);
+    precise vec3 term = w * grad;
+    sum += term;
+  }
+  return sum;
+}
+
+// Shirley's vector turbulence (docs/bump-spec.md 9): sum for i = 0 .. octaves - 1 of
+// n_v(f p) / f, f = 2^i (doubled each octave; f p and / f one operation per component),
+// summed from 0 in order of i. The one call site of vector_noise.
+vec3 vector_turbulence(vec3 p, int octaves) {
+  precise vec3 sum = vec3(0.0);
+  precise float f = 1.0;
+  [[dont_unroll]] for (int i = 0; i < octaves; ++i) {
+    precise vec3 q = f * p;
+    vec3 n = vector_noise(q);
+    precise vec3 term = n / f;
+    sum += term;
+    f *= 2.0;
+  }
+  return sum;
+}
+
 #endif

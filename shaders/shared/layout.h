@@ -472,6 +472,11 @@ BASALT_CONST uint PROBE_DIFFERENTIALS = 10u;
 // PROBE_BUMP: the first hit of the camera ray of pixel (key.z, key.w), sample
 // floatBitsToUint(extra.x), its material after mix resolution (wo = -d), then bump_shading
 // (docs/bump-spec.md 6)
+// (key.y = 0); or (key.y = 1) bump_shading of material key.z at a synthetic surface point:
+// p = o_tmax.xyz, uv = (o_tmax.w, d.w), ng = d.xyz, ns = extra3.xyz, shading pair
+// (extra.xyz, extra2.xyz), footprint dudx = dudy = extra.w, dvdx = dvdy = extra2.w,
+// dpdx = dpdy = 0, dndu = extra3.w * extra.xyz, dndv = extra3.w * extra2.xyz, the shading
+// frame shading_frame(ns, extra.xyz) (u.x = 0)
 //   out: f0.xyz = the shading normal, f1.xyz = dpdu', f2.xyz = dpdv' (the unbumped shading
 //        pair of bump-spec 3 when no bump applies), f3.xyz = the shading frame's t1;
 //        u.x = prim, u.y = 1 when a bump or normal map changed the frame

@@ -24,6 +24,12 @@ layout(std430, set = 0, binding = BINDING_PROBE_OUT) restrict writeonly buffer P
 // Closest hit as (t, b1, b2, 0); t = -1 for a miss.
 vec4 hit_record(Hit h) { return vec4(h.prim == INVALID_INDEX ? -1.0 : h.t, h.b1, h.b2, 0.0); }
 
+// k v per component, no fma (the synthetic dndu, dndv of PROBE_BUMP key.y = 1).
+vec3 probe_scaled(float k, vec3 v) {
+  precise vec3 r = k * v;
+  return r;
+}
+
 // The perfectly specular bounce of PROBE_DIFFERENTIALS modes 2, 3 (layout.h): wo reflected
 // about n, or refracted with relative IOR eta (pbrt-v4 Refract; eta becomes the etap used, 1
 // for a reflection); 0 on total internal reflection.
@@ -190,15 +196,37 @@ void main() {
       // Shading geometry after bump_shading (docs/bump-spec.md 6) at the first hit of the
       // camera ray of pixel (key.z, key.w), sample floatBitsToUint(extra.x), with the camera
       // ray's differentials as the render uses them (layout.h PROBE_BUMP).
-      CameraRay cr = camera_ray(q.key.z, q.key.w, floatBitsToUint(q.extra.x));
-      Ray cam = Ray(cr.o, FLT_MAX, cr.d);
-      RayDiff rd = scale_differentials(RayDiff(cr.rx_o, cr.rx_d, cr.ry_o, cr.ry_d), cr.o, cr.d,
-                                       globals.min_dir_dx.w);
-      Hit h = intersect_closest(cam);
-      r.u.x = h.prim;
-      if (h.prim == INVALID_INDEX) break;
-      SurfacePoint sp = surface_point(cam, h, true, rd);
-      bsdf_at(sp.material, sp, -cr.d, true);
+      SurfacePoint sp;
+      vec3 wo;
+      if (q.key.y == 1u) {
+        // The synthetic surface point of layout.h PROBE_BUMP key.y = 1.
+        sp.p = q.o_tmax.xyz;
+        sp.material = q.key.z;
+        sp.ng = q.d.xyz;
+        sp.light = INVALID_INDEX;
+        sp.ns = q.extra3.xyz;
+        sp.m = 0.0;
+        shading_frame(sp.ns, q.extra.xyz, sp.t1, sp.t2);
+        sp.tex = TexCtx(sp.p, sp.ng, vec2(q.o_tmax.w, q.d.w), vec3(0.0), vec3(0.0), q.extra.w,
+                        q.extra.w, q.extra2.w, q.extra2.w);
+        sp.sdpdu = q.extra.xyz;
+        sp.sdpdv = q.extra2.xyz;
+        sp.dndu = probe_scaled(q.extra3.w, q.extra.xyz);
+        sp.dndv = probe_scaled(q.extra3.w, q.extra2.xyz);
+        wo = sp.ns;
+        r.u.x = 0u;
+      } else {
+        CameraRay cr = camera_ray(q.key.z, q.key.w, floatBitsToUint(q.extra.x));
+        Ray cam = Ray(cr.o, FLT_MAX, cr.d);
+        RayDiff rd = scale_differentials(RayDiff(cr.rx_o, cr.rx_d, cr.ry_o, cr.ry_d), cr.o,
+                                         cr.d, globals.min_dir_dx.w);
+        Hit h = intersect_closest(cam);
+        r.u.x = h.prim;
+        if (h.prim == INVALID_INDEX) break;
+        sp = surface_point(cam, h, true, rd);
+        wo = -cr.d;
+      }
+      bsdf_at(sp.material, sp, wo, true);
       BumpFrame f = bsdf_bumped ? bsdf_frame : BumpFrame(sp.ns, sp.t1, sp.t2, sp.sdpdu, sp.sdpdv);
       r.f0 = vec4(f.ns, 0.0);
       r.f1 = vec4(f.dpdu, 0.0);
