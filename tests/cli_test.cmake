@@ -174,6 +174,34 @@ if(NOT rc EQUAL 2 OR EXISTS ${WORK}/knobs-bad.exr)
   fail("--texture-filter sharp: exit ${rc} (expected 2): ${err}")
 endif()
 
+# Bump and displacement knobs (docs/bump-spec.md 4.5): in force in --stats; the edge scale
+# changes the displaced mesh's triangle count; bad values are a bad command line.
+execute_process(COMMAND ${BASALT} ${SOURCE_DIR}/scenes/displacement.pbrt --device cpu
+                --quiet --spp 1 --bump-differences central --bump-dndu off --bump-step 0.001
+                --stats ${WORK}/bump.json -o ${WORK}/bump.exr RESULT_VARIABLE rc ERROR_VARIABLE err)
+file(READ ${WORK}/bump.json bump)
+if(NOT rc EQUAL 0 OR NOT bump MATCHES "\"bump_differences\": \"central\""
+   OR NOT bump MATCHES "\"bump_dndu\": \"off\"" OR NOT bump MATCHES "\"bump_step\": \"0.001")
+  fail("bump knobs: exit ${rc}: ${err} ${bump}")
+endif()
+string(JSON tris1 GET "${bump}" triangles)
+execute_process(COMMAND ${BASALT} ${SOURCE_DIR}/scenes/displacement.pbrt --device cpu
+                --quiet --spp 1 --displacement-edge-scale 0.5
+                --stats ${WORK}/edge.json -o ${WORK}/edge.exr RESULT_VARIABLE rc ERROR_VARIABLE err)
+file(READ ${WORK}/edge.json edge)
+string(JSON tris2 GET "${edge}" triangles)
+if(NOT rc EQUAL 0 OR NOT tris2 GREATER tris1 OR NOT edge MATCHES "\"displacement_edge_scale\": \"0.5")
+  fail("--displacement-edge-scale 0.5: exit ${rc}, ${tris2} triangles (default ${tris1}): ${err}")
+endif()
+foreach(bad "--bump-step;0" "--bump-step;-1" "--bump-step;fine" "--bump-differences;backward"
+            "--bump-dndu;maybe" "--displacement-edge-scale;0")
+  execute_process(COMMAND ${BASALT} ${WORK}/good.pbrt --device cpu ${bad} -o ${WORK}/bump-bad.exr
+                  RESULT_VARIABLE rc ERROR_VARIABLE err)
+  if(NOT rc EQUAL 2 OR EXISTS ${WORK}/bump-bad.exr)
+    fail("${bad}: exit ${rc} (expected 2): ${err}")
+  endif()
+endforeach()
+
 # A missing scene file and an unsupported output format fail before any rendering.
 execute_process(COMMAND ${BASALT} ${WORK}/does-not-exist.pbrt -o ${WORK}/x.exr
                 RESULT_VARIABLE rc ERROR_VARIABLE err)
