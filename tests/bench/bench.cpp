@@ -1,8 +1,10 @@
 // basalt benchmark: samples/s and Mrays/s of every scene in scenes/ on a Vulkan device
 // (lavapipe unless BASALT_BENCH_DEVICE names another) and on the CPU reference, and the
 // cost of the specialised pipeline against one with every feature compiled in, and for
-// diffuse-only scenes of the lean render shader against the full one; and the render cost of
-// each texture family on one scene (texture/<family>/{gpu,cpu}).
+// diffuse-only scenes of the lean render shader against the full one; the render cost of
+// each texture family and each bump family on one scene (texture/<family>/{gpu,cpu},
+// bump/<family>/{gpu,cpu}); and displacement mapping's triangles, build time and table size
+// at several edge-length scales (displacement/edge-scale-<scale x 1000>).
 // Run: `cmake --build build --target bench` (5 repetitions, medians reported).
 #include <benchmark/benchmark.h>
 
@@ -142,36 +144,76 @@ const std::vector<std::pair<std::string, std::string>>& texture_families() {
   return f;
 }
 
-/// Tables of the texture-family scene for family \p i, cached.
-const basalt::SceneTables& family_tables(std::size_t i) {
-  static std::map<std::size_t, basalt::SceneTables> cache;
-  auto it = cache.find(i);
-  if (it != cache.end()) return it->second;
-  const auto& [name, def] = texture_families()[i];
+/// The scene of the texture and bump families (a floor and nine spheres under a distant light
+/// and a sky, 160x120) with \p defs (Texture and Material lines) before the shapes.
+std::string family_scene(const std::string& defs) {
   std::string text =
       "LookAt 0 3 -7  0 0.5 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n"
       "Film \"rgb\" \"integer xresolution\" 160 \"integer yresolution\" 120\n"
       "Integrator \"path\" \"integer maxdepth\" 5\nWorldBegin\n"
       "LightSource \"infinite\" \"rgb L\" [ 0.4 0.4 0.5 ]\n"
-      "LightSource \"distant\" \"point3 from\" [ -2 5 -3 ] \"rgb L\" [ 2 2 2 ]\n" + def + "\n";
-  if (name != "none") text += "Material \"diffuse\" \"texture reflectance\" \"t\"\n";
+      "LightSource \"distant\" \"point3 from\" [ -2 5 -3 ] \"rgb L\" [ 2 2 2 ]\n" + defs + "\n";
   text += "Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ] \"point3 P\" "
           "[ -10 0 -10 10 0 -10 10 0 10 -10 0 10 ] \"point2 uv\" [ 0 0 1 0 1 1 0 1 ]\n";
   for (int k = 0; k < 9; ++k)
     text += "AttributeBegin\nTranslate " + std::to_string(-2.4 + 2.4 * (k % 3)) + " 0.6 " +
             std::to_string(-1.5 + 1.6 * (k / 3)) + "\nShape \"sphere\" \"float radius\" 0.6\n"
             "AttributeEnd\n";
-  basalt::SceneTables t = basalt::build_tables(basalt::load_scene_from_string(text, name, "scenes"));
+  return text;
+}
+
+/// Tables of the texture-family scene for family \p i, cached.
+const basalt::SceneTables& family_tables(std::size_t i) {
+  static std::map<std::size_t, basalt::SceneTables> cache;
+  auto it = cache.find(i);
+  if (it != cache.end()) return it->second;
+  const auto& [name, def] = texture_families()[i];
+  std::string defs = def;
+  if (name != "none") defs += "\nMaterial \"diffuse\" \"texture reflectance\" \"t\"";
+  basalt::SceneTables t =
+      basalt::build_tables(basalt::load_scene_from_string(family_scene(defs), name, "scenes"));
   if (name == "fbm-fp32") basalt::apply_texture_knobs(t, -1, 0, false);
   return cache.emplace(i, std::move(t)).first->second;
 }
 
-/// Render cost of one texture family (argument: index into texture_families()) on the GPU
-/// (range(1) = 0) or the CPU reference (1); pipeline creation is not timed.
-void BM_TextureFamily(benchmark::State& state) {
-  const auto& t = family_tables(std::size_t(state.range(0)));
-  const bool cpu = state.range(1) == 1;
-  state.SetLabel(texture_families()[std::size_t(state.range(0))].first + (cpu ? ", cpu" : ", gpu"));
+/// Bump families compared by BM_BumpFamily on the family scene: every surface diffuse, with
+/// no bump, or bumped by the named displacement (docs/bump-spec.md), normal map or vector
+/// turbulence. The "-central" family takes --bump-differences central.
+const std::vector<std::pair<std::string, std::string>>& bump_families() {
+  static const std::string fbm =
+      "Texture \"f\" \"float\" \"fbm\" \"integer octaves\" 6\n"
+      "Texture \"d\" \"float\" \"scale\" \"texture tex\" \"f\" \"float scale\" 0.02\n";
+  static const std::string diffuse = "Material \"diffuse\" \"rgb reflectance\" [ 0.5 0.4 0.3 ] ";
+  static const std::vector<std::pair<std::string, std::string>> f = {
+      {"none", diffuse},
+      {"constant", diffuse + "\"float displacement\" 0.01"},
+      {"fbm", fbm + diffuse + "\"texture displacement\" \"d\""},
+      {"fbm-central", fbm + diffuse + "\"texture displacement\" \"d\""},
+      {"image", "Texture \"i\" \"float\" \"imagemap\" \"string filename\" "
+                "\"data/tex-rings16.png\" \"string encoding\" \"linear\"\n"
+                "Texture \"d\" \"float\" \"scale\" \"texture tex\" \"i\" \"float scale\" 0.01\n" +
+                    diffuse + "\"texture displacement\" \"d\""},
+      {"normalmap", diffuse + "\"string normalmap\" \"data/normal-domes.png\""},
+      {"vturb", diffuse + "\"float normalturbulence\" 0.08 \"float normalturbulencescale\" 8"},
+  };
+  return f;
+}
+
+/// Tables of the bump-family scene for family \p i, cached.
+const basalt::SceneTables& bump_family_tables(std::size_t i) {
+  static std::map<std::size_t, basalt::SceneTables> cache;
+  auto it = cache.find(i);
+  if (it != cache.end()) return it->second;
+  const auto& [name, def] = bump_families()[i];
+  basalt::SceneTables t =
+      basalt::build_tables(basalt::load_scene_from_string(family_scene(def), name, "scenes"));
+  if (name == "fbm-central") basalt::apply_bump_knobs(t, true, true, 0.0f);
+  return cache.emplace(i, std::move(t)).first->second;
+}
+
+/// One timed render of \p t (kSpp) on the GPU or the CPU reference, with its counters;
+/// pipeline creation is not timed.
+void render_family(benchmark::State& state, const basalt::SceneTables& t, bool cpu) {
   const double samples = double(t.width()) * t.height() * kSpp;
   double rays = 0;
   std::unique_ptr<basalt::vkx::GpuRenderer> gpu;
@@ -191,6 +233,45 @@ void BM_TextureFamily(benchmark::State& state) {
   if (gpu) state.counters["pipeline_s"] = gpu->seconds_pipeline;
 }
 
+/// Render cost of one texture family (argument: index into texture_families()) on the GPU
+/// (range(1) = 0) or the CPU reference (1); pipeline creation is not timed.
+void BM_TextureFamily(benchmark::State& state) {
+  const bool cpu = state.range(1) == 1;
+  state.SetLabel(texture_families()[std::size_t(state.range(0))].first + (cpu ? ", cpu" : ", gpu"));
+  render_family(state, family_tables(std::size_t(state.range(0))), cpu);
+}
+
+/// Render cost of one bump family (argument: index into bump_families()) on the GPU
+/// (range(1) = 0) or the CPU reference (1); pipeline creation is not timed.
+void BM_BumpFamily(benchmark::State& state) {
+  const bool cpu = state.range(1) == 1;
+  state.SetLabel(bump_families()[std::size_t(state.range(0))].first + (cpu ? ", cpu" : ", gpu"));
+  render_family(state, bump_family_tables(std::size_t(state.range(0))), cpu);
+}
+
+/// Displacement mapping's cost on the host (docs/bump-spec.md, scene-format "Displacement"):
+/// scenes/displacement.pbrt with --displacement-edge-scale range(0) / 1000; times parse plus
+/// table and BVH build, and reports the triangles and the bytes of the triangle, vertex and
+/// BVH tables.
+void BM_Displacement(benchmark::State& state) {
+  const float scale = float(state.range(0)) / 1000.0f;
+  std::size_t tris = 0, bytes = 0;
+  double bvh = 0;
+  for (auto _ : state) {
+    basalt::Scene scene = basalt::load_scene("scenes/displacement.pbrt");
+    scene.displacement_edge_scale = scale;
+    basalt::BuildTimes times;
+    const basalt::SceneTables t = basalt::build_tables(scene, &times);
+    tris = t.triangles.size();
+    bytes = t.triangles.size() * sizeof(t.triangles[0]) + t.vertices.size() * sizeof(t.vertices[0]) +
+            t.nodes.size() * sizeof(t.nodes[0]) + t.prim_refs.size() * sizeof(std::uint32_t);
+    bvh = times.seconds_bvh;
+  }
+  state.counters["triangles"] = double(tris);
+  state.counters["table_MiB"] = double(bytes) / (1024.0 * 1024.0);
+  state.counters["bvh_s"] = bvh;
+}
+
 /// Registers every benchmark for every scene file.
 void register_all() {
   for (std::size_t i = 0; i < texture_families().size(); ++i)
@@ -202,6 +283,22 @@ void register_all() {
           ->Unit(benchmark::kMillisecond)
           ->Iterations(1)
           ->UseRealTime();
+  for (std::size_t i = 0; i < bump_families().size(); ++i)
+    for (int side = 0; side < 2; ++side)
+      benchmark::RegisterBenchmark(("bump/" + bump_families()[i].first +
+                                    (side ? "/cpu" : "/gpu")).c_str(),
+                                   BM_BumpFamily)
+          ->Args({int(i), side})
+          ->Unit(benchmark::kMillisecond)
+          ->Iterations(1)
+          ->UseRealTime();
+  for (int scale : {1000, 500, 250, 125})
+    benchmark::RegisterBenchmark(("displacement/edge-scale-" + std::to_string(scale)).c_str(),
+                                 BM_Displacement)
+        ->Arg(scale)
+        ->Unit(benchmark::kMillisecond)
+        ->Iterations(1)
+        ->UseRealTime();
   std::vector<std::string> files;
   for (const auto& e : std::filesystem::directory_iterator("scenes"))
     if (e.path().extension() == ".pbrt") files.push_back(e.path().string());
