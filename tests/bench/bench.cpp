@@ -87,6 +87,8 @@ enum Config : int {
   kSpecialisedFull = 2,  // scene's features, full shader (registered for lean scenes only)
   kTexturesForced = 3,   // scene's features plus every texture and image-light bit (what a
                          // scene without textures would pay if they were not specialised away)
+  kBumpForced = 4,       // scene's features plus the bump, normal-map and vector-turbulence
+                         // code (FEATURES2; registered for textured scenes without them)
 };
 
 /// Pipeline creation (with the driver's compile at first dispatch) and render speed for one
@@ -103,12 +105,22 @@ void BM_Specialisation(benchmark::State& state, std::string path) {
   const auto variant = config == kSpecialisedFull ? basalt::vkx::ShaderVariant::full
                                                   : basalt::vkx::ShaderVariant::automatic;
   const double samples = double(t.width()) * t.height() * kSpp;
+  // The bump code lives in the second feature word (specialization constant FEATURES2).
+  basalt::SceneTables forced;
+  if (config == kBumpForced) {
+    forced = t;
+    forced.features2 |= basalt::gpu::FEATURE2_BUMP | basalt::gpu::FEATURE2_NORMALMAP |
+                        basalt::gpu::FEATURE2_VTURB;
+    forced.globals.features.y = forced.features2;
+  }
+  const basalt::SceneTables& used = config == kBumpForced ? forced : t;
   double pipeline = 0, rays = 0;
   for (auto _ : state) {
     state.PauseTiming();
-    basalt::vkx::GpuRenderer gpu(context(), t, features, variant);
+    basalt::vkx::GpuRenderer gpu(context(), used, features, variant);
     state.SetLabel(std::string(config == kAllFeatures      ? "all features, "
                                : config == kTexturesForced ? "texture code forced in, "
+                               : config == kBumpForced     ? "bump code forced in, "
                                                            : "specialised, ") +
                    gpu.variant + " shader");
     pipeline += gpu.seconds_pipeline;
@@ -181,7 +193,7 @@ const basalt::SceneTables& family_tables(std::size_t i) {
 /// turbulence. The "-central" family takes --bump-differences central.
 const std::vector<std::pair<std::string, std::string>>& bump_families() {
   static const std::string fbm =
-      "Texture \"f\" \"float\" \"fbm\" \"integer octaves\" 6\n"
+      "Texture \"f\" \"float\" \"fbm\" \"integer octaves\" 8\n"
       "Texture \"d\" \"float\" \"scale\" \"texture tex\" \"f\" \"float scale\" 0.02\n";
   static const std::string diffuse = "Material \"diffuse\" \"rgb reflectance\" [ 0.5 0.4 0.3 ] ";
   static const std::vector<std::pair<std::string, std::string>> f = {
@@ -314,6 +326,11 @@ void register_all() {
     spec->ArgName("config")->Arg(kSpecialised)->Arg(kAllFeatures);
     // Scenes without textures: what the texture code would cost them.
     if (!(tables(f).features & basalt::gpu::FEATURE_TEXTURES)) spec->Arg(kTexturesForced);
+    // Textured scenes without bumps: what the bump code would cost them.
+    constexpr std::uint32_t kBumpBits = basalt::gpu::FEATURE2_BUMP |
+                                        basalt::gpu::FEATURE2_NORMALMAP | basalt::gpu::FEATURE2_VTURB;
+    if ((tables(f).features & basalt::gpu::FEATURE_TEXTURES) && !(tables(f).features2 & kBumpBits))
+      spec->Arg(kBumpForced);
     // Diffuse-only scenes get the lean shader: measure the full one too (the saving).
     if (basalt::vkx::GpuRenderer::lean_suffices(tables(f).features)) spec->Arg(kSpecialisedFull);
     spec->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
