@@ -36,7 +36,7 @@ constexpr int kExitInput = 1, kExitValidation = 3;
 struct Options {
   std::string scene, device = "auto", stats, mix = "auto", texture_filter = "scene",
               noise_precision = "split", bump_differences = "forward", bump_dndu = "on",
-              bump_step = "footprint";
+              bump_step = "footprint", shading_normal_rule = "geometric";
   int noise_octaves = 0;
   float displacement_edge_scale = 0.0f;  // 0: the scene's Option "displacementedgescale"
   std::vector<std::string> outputs;
@@ -87,6 +87,8 @@ int run(const Options& opt) {
     for (auto& k : basalt::apply_bump_knobs(tables, opt.bump_differences == "central",
                                             opt.bump_dndu == "on", step))
       st.quality.push_back(k);
+    st.quality.push_back(
+        basalt::apply_shading_rule(tables, opt.shading_normal_rule == "pbrt-v4"));
     st.quality.emplace_back("displacement_edge_scale",
                             std::to_string(scene.displacement_edge_scale));
   }
@@ -203,6 +205,12 @@ int main(int argc, char** argv) {
         }
         return "must be 'footprint' or a positive number, got '" + v + "'";
       });
+  app.add_option("--shading-normal-rule", opt.shading_normal_rule,
+                 "what decides reflection or transmission where shading and geometric normals "
+                 "disagree: geometric (basalt's default: no light leaks, no black spots) or "
+                 "pbrt-v4 (the shading frame alone, as pbrt-v4: black spots where a bump tilts "
+                 "the normal away from the light)")
+      ->check(CLI::IsMember({"geometric", "pbrt-v4"}));
   app.add_option("--displacement-edge-scale", opt.displacement_edge_scale,
                  "scale every displaced plymesh's \"edgelength\" (pbrt-v4's option of the same "
                  "name; default: the scene's Option \"displacementedgescale\", else 1)")

@@ -119,7 +119,11 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
     const std::uint32_t b = depth;
     ++depth;
     const glm::vec3 wo = sp.frame.to_local(-ray.d);
-    const glm::vec3 ng_l = sp.frame.to_local(sp.g.ng);
+    // The light-leak rule's geometric normal (materials-spec 1.2), or with
+    // SHADEOPT_PBRT_V4_SIDES the shading normal (pbrt-v4: the shading frame alone decides).
+    const glm::vec3 ng_l = (scene.globals.texture_opts.w & gpu::SHADEOPT_PBRT_V4_SIDES)
+                               ? glm::vec3(0.0f, 0.0f, 1.0f)
+                               : sp.frame.to_local(sp.g.ng);
     if (bsdf_is_nonspecular(bsdf))
       L += beta * sample_direct(scene, sp, bsdf, wo, ng_l, b, r, nrays);
     // Continue the path by sampling the BSDF (stream +9).

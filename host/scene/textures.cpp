@@ -813,4 +813,10 @@ std::vector<std::pair<std::string, std::string>> apply_bump_knobs(SceneTables& t
   return knobs;
 }
 
+std::pair<std::string, std::string> apply_shading_rule(SceneTables& t, bool pbrt_v4) {
+  std::uint32_t& bits = t.globals.texture_opts.w;
+  bits = pbrt_v4 ? (bits | gpu::SHADEOPT_PBRT_V4_SIDES) : (bits & ~gpu::SHADEOPT_PBRT_V4_SIDES);
+  return {"shading_normal_rule", pbrt_v4 ? "pbrt-v4" : "geometric"};
+}
+
 }  // namespace basalt

@@ -101,4 +101,10 @@ std::vector<std::pair<std::string, std::string>> apply_texture_knobs(SceneTables
 std::vector<std::pair<std::string, std::string>> apply_bump_knobs(SceneTables& t, bool central,
                                                                   bool dndu, float fixed_step);
 
+/// \brief The light-leak rule of the command line (docs/materials-spec.md 1.2): \p pbrt_v4
+/// true lets the shading frame alone decide reflection or transmission, as pbrt-v4 does
+/// (SHADEOPT_PBRT_V4_SIDES); false keeps basalt's geometric decision. Returns the knob for
+/// --stats.
+std::pair<std::string, std::string> apply_shading_rule(SceneTables& t, bool pbrt_v4);
+
 }  // namespace basalt

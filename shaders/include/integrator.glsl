@@ -110,7 +110,10 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
     ++depth;
 
     vec3 wo_l = to_local(sp, wo);
-    vec3 ng_l = to_local(sp, sp.ng);
+    // The light-leak rule's geometric normal (materials-spec 1.2); with SHADEOPT_PBRT_V4_SIDES
+    // the shading normal stands in for it, so the shading frame alone decides, as in pbrt-v4.
+    vec3 ng_l = (globals.texture_opts.w & SHADEOPT_PBRT_V4_SIDES) != 0u ? vec3(0.0, 0.0, 1.0)
+                                                                          : to_local(sp, sp.ng);
 
     // Next-event estimation (one light picked by light_cdf, MIS against BSDF sampling) and BSDF
     // sampling. The BSDF queries of the bounce run in one loop through one bsdf_query call

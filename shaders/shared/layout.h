@@ -267,6 +267,9 @@ BASALT_CONST uint TEXOPT_DISABLE_FILTERING = 1u << 0;  // Option "disabletexture
 BASALT_CONST uint TEXOPT_NOISE_SPLIT = 1u << 1;        // noise lookup point split in fp64
 BASALT_CONST uint TEXOPT_BUMP_CENTRAL = 1u << 2;       // bump: central differences (bump-spec 4.5)
 BASALT_CONST uint TEXOPT_BUMP_NO_DNDU = 1u << 3;       // bump: drop the d dn/du term (bump-spec 4.5)
+// Globals.texture_opts.w: shading options
+BASALT_CONST uint SHADEOPT_PBRT_V4_SIDES = 1u << 0;  // the shading frame alone decides reflection
+                                                    // or transmission (pbrt-v4; materials-spec 1.2)
 
 // Offsets into tex_data of the shared tables (Globals.tex_tables), docs/textures-spec.md 5.
 // tex_tables.x: noise permutation (512 floats holding integers), y: EWA weight table
@@ -316,7 +319,7 @@ struct Globals {
   vec4 min_dir_dx;
   vec4 min_dir_dy;
   uvec4 texture_opts;      // x: TEXOPT_* bits, y: octave cap (0: none), z: fixed bump step
-                           // (float bits; 0: from the footprint, bump-spec 4.5), w: unused
+                           // (float bits; 0: from the footprint, bump-spec 4.5), w: SHADEOPT_*
   uvec4 tex_tables;        // offsets into tex_data (see EWA_LUT_SIZE above)
   mat4 camera_from_world;  // inverse of world_from_camera (Approximate_dp_dxy)
 };

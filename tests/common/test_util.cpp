@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <memory>
@@ -135,6 +136,18 @@ double mean(const std::vector<glm::vec3>& img) {
   double s = 0.0;
   for (const auto& p : img) s += double(p.x) + p.y + p.z;
   return img.empty() ? 0.0 : s / (3.0 * img.size());
+}
+
+void mean_and_se(const std::vector<glm::vec3>& im, double& m, double& se) {
+  double s = 0, s2 = 0;
+  for (const glm::vec3& p : im) {
+    const double v = (double(p.x) + double(p.y) + double(p.z)) / 3.0;
+    s += v;
+    s2 += v * v;
+  }
+  const double k = double(im.size());
+  m = s / k;
+  se = std::sqrt(std::max(0.0, s2 / k - m * m) / k);
 }
 
 }  // namespace basalt::test

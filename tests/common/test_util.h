@@ -52,4 +52,8 @@ bool all_finite(const std::vector<glm::vec3>& img);
 /// Mean over pixels and channels.
 double mean(const std::vector<glm::vec3>& img);
 
+/// The mean of the pixels' channel averages of \p im and its standard error (pixels taken as
+/// independent samples).
+void mean_and_se(const std::vector<glm::vec3>& im, double& m, double& se);
+
 }  // namespace basalt::test

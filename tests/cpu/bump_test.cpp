@@ -741,8 +741,8 @@ TEST(Bump, NormalMapTexelZeroOrBelowSurface) {
 // shading normal (the light-leak rule integrates |n' . wi| over ng's hemisphere, which is pi
 // for every unit n'): so the bumped image's mean must equal the unbumped one's within the
 // Monte Carlo noise (4 standard errors of the difference), with no NaN and no black pixel.
-TEST(Bump, LargeDisplacementFlip) {
-  auto scene = [](bool bumped) {
+/// The steep stripe bump of LargeDisplacementFlip (\p bumped) or the same plane unbumped.
+std::string steep_scene(bool bumped) {
     return std::string(R"(
 LookAt 0 0 3  0 0 0  0 1 0
 Camera "perspective" "float fov" [ 30 ]
@@ -759,7 +759,10 @@ Shape "trianglemesh" "point3 P" [ -2 -2 0  2 -2 0  2 2 0  -2 2 0 ]
   "integer indices" [ 0 1 2  0 2 3 ] "point2 uv" [ 0 0  1 0  1 1  0 1 ]
   "normal N" [ 0.5 0 1  0.5 0 1  0.5 0 1  0.5 0 1 ]
 )";
-  };
+}
+
+TEST(Bump, LargeDisplacementFlip) {
+  auto scene = steep_scene;
   const SceneTables tb = tables_from_string(scene(true));
   const SceneTables tu = tables_from_string(scene(false));
   int flipped = 0, n = 0;
@@ -784,20 +787,9 @@ Shape "trianglemesh" "point3 P" [ -2 -2 0  2 -2 0  2 2 0  -2 2 0 ]
   const std::vector<glm::vec3> iu = render(Side::Cpu, tu, spp);
   ASSERT_TRUE(all_finite(ib));
   ASSERT_TRUE(all_finite(iu));
-  auto stats = [](const std::vector<glm::vec3>& im, double& m, double& se) {
-    double s = 0, s2 = 0;
-    for (const glm::vec3& p : im) {
-      const double v = (double(p.x) + double(p.y) + double(p.z)) / 3.0;
-      s += v;
-      s2 += v * v;
-    }
-    const double k = double(im.size());
-    m = s / k;
-    se = std::sqrt(std::max(0.0, s2 / k - m * m) / k);
-  };
   double mb, seb, mu, seu;
-  stats(ib, mb, seb);
-  stats(iu, mu, seu);
+  mean_and_se(ib, mb, seb);
+  mean_and_se(iu, mu, seu);
   const double bound = 4.0 * std::sqrt(seb * seb + seu * seu);
   int black = 0;
   for (const glm::vec3& p : ib)
@@ -808,6 +800,54 @@ Shape "trianglemesh" "point3 P" [ -2 -2 0  2 -2 0  2 2 0  -2 2 0 ]
   EXPECT_LT(std::fabs(mb - mu), bound);
   EXPECT_LT(std::fabs(mu - 0.5), 4.0 * seu + 1e-3);
   EXPECT_EQ(black, 0);
+}
+
+// --shading-normal-rule pbrt-v4 (materials-spec 1.2) turns basalt's light-leak rule off, and the
+// two artefacts of Fig. 9.2 come back on the steep bump: (a) a distant light below the plane
+// leaks through it where the bumped normals turn towards the light (basalt's rule: every pixel
+// exactly black); (b) a grazing light above it leaves black spots where the bumped normals turn
+// away from it (the mean falls below basalt's by more than 4 standard errors). (Under a
+// uniform sky the two rules agree on the mean: what the spots lose, the leak gains.) The
+// unbumped plane, whose tilted vertex normals never put the light and the viewer on different
+// sides, renders the same under both rules, bit for bit.
+TEST(Bump, PbrtV4RuleLeaksAndLosesLightWhereTheNormalFlips) {
+  auto lit = [](bool bumped, const std::string& light) {
+    std::string text = steep_scene(bumped);
+    const std::string sky = "LightSource \"infinite\" \"rgb L\" [ 1 1 1 ]";
+    text.replace(text.find(sky), sky.size(), light);
+    return tables_from_string(text);
+  };
+  // (a) pbrt's default "to" is (0, 0, 1): the light arrives from (1, 0, -0.4), below the plane.
+  const std::string below = "LightSource \"distant\" \"point3 from\" [ 1 0 0.6 ] \"rgb L\" [ 3 3 3 ]";
+  const std::string above =
+      "LightSource \"distant\" \"point3 from\" [ 1 0 0.6 ] \"point3 to\" [ 0 0 0 ] \"rgb L\" [ 3 3 3 ]";
+  const std::uint32_t spp = 64;
+  SceneTables leak = lit(true, below), leak_pbrt = lit(true, below);
+  apply_shading_rule(leak_pbrt, true);
+  const std::vector<glm::vec3> lb = render(Side::Cpu, leak, spp);
+  const std::vector<glm::vec3> lp = render(Side::Cpu, leak_pbrt, spp);
+  ASSERT_TRUE(all_finite(lb) && all_finite(lp));
+  std::printf("[ bump ] light below the plane: mean %.5f with basalt's rule, %.5f leaks with "
+              "pbrt-v4's\n", mean(lb), mean(lp));
+  EXPECT_EQ(mean(lb), 0.0);
+  EXPECT_GT(mean(lp), 0.01);
+  SceneTables tb = lit(true, above), tb_pbrt = lit(true, above), tu = lit(false, above),
+              tu_pbrt = lit(false, above);
+  apply_shading_rule(tb_pbrt, true);
+  apply_shading_rule(tu_pbrt, true);
+  const std::vector<glm::vec3> ib = render(Side::Cpu, tb, spp);
+  const std::vector<glm::vec3> ip = render(Side::Cpu, tb_pbrt, spp);
+  ASSERT_TRUE(all_finite(ib) && all_finite(ip));
+  double mb, seb, mp, sep;
+  mean_and_se(ib, mb, seb);
+  mean_and_se(ip, mp, sep);
+  const double bound = 4.0 * std::sqrt(seb * seb + sep * sep);
+  std::printf("[ bump ] grazing light above: mean %.5f with basalt's rule, %.5f with pbrt-v4's "
+              "(%.1f%% darker, bound %.5f)\n", mb, mp, 100.0 * (1.0 - mp / mb), bound);
+  EXPECT_LT(mp, mb - bound);
+  const std::vector<glm::vec3> iu = render(Side::Cpu, tu, 8);
+  const std::vector<glm::vec3> iu_pbrt = render(Side::Cpu, tu_pbrt, 8);
+  EXPECT_EQ(std::memcmp(iu.data(), iu_pbrt.data(), iu.size() * sizeof(glm::vec3)), 0);
 }
 
 // 10^6 bump evaluations with random extreme inputs (displacements, footprints, shading pairs and

@@ -15,6 +15,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <string>
 
 #include "common/test_util.h"
 #include "image/image_io.h"
@@ -57,6 +59,16 @@ std::vector<double> block_means(const std::vector<glm::vec3>& img, int w, int h,
 void check_against_pbrt(const std::string& name, Side side) {
   const Image ref = read_exr(source_path("tests/refs/" + name + ".exr"));
   SceneTables t = tables_from_file(source_path("scenes/" + name + ".pbrt"));
+  // tests/refs/<scene>.options: basalt command-line knobs the comparison renders with (only
+  // --shading-normal-rule pbrt-v4 so far; anything else is an error).
+  if (std::ifstream opt(source_path("tests/refs/" + name + ".options")); opt) {
+    std::string key, value;
+    while (opt >> key >> value) {
+      ASSERT_TRUE(key == "--shading-normal-rule" && value == "pbrt-v4")
+          << name << ".options: unknown knob " << key << " " << value;
+      apply_shading_rule(t, true);
+    }
+  }
   ASSERT_EQ(int(t.width()), ref.width) << "reference resolution differs from the scene's";
   ASSERT_EQ(int(t.height()), ref.height);
   const std::uint32_t spp = 64;
