@@ -36,7 +36,9 @@ constexpr int kExitInput = 1, kExitValidation = 3;
 struct Options {
   std::string scene, device = "auto", stats, mix = "auto", texture_filter = "scene",
               noise_precision = "split", bump_differences = "forward", bump_dndu = "on",
-              bump_step = "footprint", shading_normal_rule = "geometric";
+              bump_step = "footprint", shading_normal_rule = "geometric", roulette = "pbrt-v4",
+              mis = "power";
+  int max_depth = -1;  // -1: the scene's Integrator "maxdepth"
   int noise_octaves = 0;
   float displacement_edge_scale = 0.0f;  // 0: the scene's Option "displacementedgescale"
   std::vector<std::string> outputs;
@@ -89,6 +91,16 @@ int run(const Options& opt) {
       st.quality.push_back(k);
     st.quality.push_back(
         basalt::apply_shading_rule(tables, opt.shading_normal_rule == "pbrt-v4"));
+    // --maxdepth, --roulette, --mis: docs/path-spec.md 7.1 (the CLI checks the values).
+    const std::uint32_t start = opt.roulette == "pbrt-v4" ? 1u
+                                : opt.roulette == "off"   ? basalt::gpu::ROULETTE_OFF
+                                                          : std::uint32_t(std::stoul(opt.roulette));
+    const std::uint32_t mis = opt.mis == "balance" ? basalt::gpu::MIS_BALANCE
+                              : opt.mis == "bsdf"  ? basalt::gpu::MIS_BSDF_ONLY
+                              : opt.mis == "light" ? basalt::gpu::MIS_LIGHT_ONLY
+                                                   : basalt::gpu::MIS_POWER;
+    for (auto& k : basalt::apply_path_knobs(tables, opt.max_depth, start, mis))
+      st.quality.push_back(k);
     st.quality.emplace_back("displacement_edge_scale",
                             std::to_string(scene.displacement_edge_scale));
   }
@@ -205,6 +217,22 @@ int main(int argc, char** argv) {
         }
         return "must be 'footprint' or a positive number, got '" + v + "'";
       });
+  app.add_option("--maxdepth", opt.max_depth,
+                 "longest path in bounces (default: the scene's Integrator \"maxdepth\")")
+      ->check(CLI::Range(0, 100000));
+  app.add_option("--roulette", opt.roulette,
+                 "Russian roulette: pbrt-v4 (the default, = 1), off, or N: roulette may end a path "
+                 "once it has bounced more than N times")
+      ->check([](const std::string& v) -> std::string {
+        if (v == "pbrt-v4" || v == "off") return {};
+        if (!v.empty() && v.size() < 7 && v.find_first_not_of("0123456789") == std::string::npos)
+          return {};
+        return "must be pbrt-v4, off or a bounce count, got '" + v + "'";
+      });
+  app.add_option("--mis", opt.mis,
+                 "how light and BSDF sampling combine: power (pbrt-v4's power heuristic, the "
+                 "default), balance, bsdf (BSDF sampling only) or light (light sampling only)")
+      ->check(CLI::IsMember({"power", "balance", "bsdf", "light"}));
   app.add_option("--shading-normal-rule", opt.shading_normal_rule,
                  "what decides reflection or transmission where shading and geometric normals "
                  "disagree: geometric (basalt's default: no light leaks, no black spots) or "

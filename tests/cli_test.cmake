@@ -178,12 +178,14 @@ endif()
 # changes the displaced mesh's triangle count; bad values are a bad command line.
 execute_process(COMMAND ${BASALT} ${SOURCE_DIR}/scenes/displacement.pbrt --device cpu
                 --quiet --spp 1 --bump-differences central --bump-dndu off --bump-step 0.001
-                --shading-normal-rule pbrt-v4
+                --shading-normal-rule pbrt-v4 --maxdepth 3 --roulette off --mis balance
                 --stats ${WORK}/bump.json -o ${WORK}/bump.exr RESULT_VARIABLE rc ERROR_VARIABLE err)
 file(READ ${WORK}/bump.json bump)
 if(NOT rc EQUAL 0 OR NOT bump MATCHES "\"bump_differences\": \"central\""
    OR NOT bump MATCHES "\"bump_dndu\": \"off\"" OR NOT bump MATCHES "\"bump_step\": \"0.001"
-   OR NOT bump MATCHES "\"shading_normal_rule\": \"pbrt-v4\"")
+   OR NOT bump MATCHES "\"shading_normal_rule\": \"pbrt-v4\""
+   OR NOT bump MATCHES "\"maxdepth\": \"3\"" OR NOT bump MATCHES "\"roulette\": \"off\""
+   OR NOT bump MATCHES "\"mis\": \"balance\"")
   fail("bump knobs: exit ${rc}: ${err} ${bump}")
 endif()
 string(JSON tris1 GET "${bump}" triangles)
@@ -196,7 +198,8 @@ if(NOT rc EQUAL 0 OR NOT tris2 GREATER tris1 OR NOT edge MATCHES "\"displacement
   fail("--displacement-edge-scale 0.5: exit ${rc}, ${tris2} triangles (default ${tris1}): ${err}")
 endif()
 foreach(bad "--bump-step;0" "--bump-step;-1" "--bump-step;fine" "--bump-differences;backward"
-            "--bump-dndu;maybe" "--displacement-edge-scale;0" "--shading-normal-rule;pbrt-v3")
+            "--bump-dndu;maybe" "--displacement-edge-scale;0" "--shading-normal-rule;pbrt-v3"
+            "--maxdepth;-1" "--roulette;sometimes" "--roulette;-2" "--mis;mixed")
   execute_process(COMMAND ${BASALT} ${WORK}/good.pbrt --device cpu ${bad} -o ${WORK}/bump-bad.exr
                   RESULT_VARIABLE rc ERROR_VARIABLE err)
   if(NOT rc EQUAL 2 OR EXISTS ${WORK}/bump-bad.exr)

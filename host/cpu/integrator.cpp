@@ -40,7 +40,7 @@ glm::vec3 sample_direct(const SceneTables& scene, const SurfacePoint& sp, const 
   const float pl = light.pmf * ls.pdf;
   if (!(pl > 0.0f)) return glm::vec3(0.0f);  // underflow of pmf * pdf
   const float pb = bsdf_pdf(bsdf, wo, wi, ng_l, r.stream(dim::bounce(b, dim::STREAM_NEE_PDF)));
-  return f * ls.Li * power_heuristic(pl, pb) / pl;
+  return f * ls.Li * mis_light(scene.globals.render_opts.y, pl, pb) / pl;
 }
 
 /// docs/materials-spec.md section 5: interface crossings allowed per path.
@@ -77,7 +77,8 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
         const glm::vec3 Le = infinite_Le(scene, light, ray.o, ray.d);
         const float w = (depth == 0 || specular)
                             ? 1.0f
-                            : power_heuristic(pdf_prev, infinite_light_pdf(scene, light, p_prev, ray.d));
+                            : mis_bsdf(g.render_opts.y, pdf_prev,
+                                       infinite_light_pdf(scene, light, p_prev, ray.d));
         L += beta * w * Le;
       }
       break;
@@ -95,7 +96,7 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
         } else {
           const float pl = light.pmf * area_light_pdf(scene, light, p_prev, ng_prev, m_prev, sp.g.p,
                                                           sp.g.ng, ray.d);
-          L += beta * power_heuristic(pdf_prev, pl) * Le;
+          L += beta * mis_bsdf(g.render_opts.y, pdf_prev, pl) * Le;
         }
       }
     }
@@ -124,7 +125,8 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
     const glm::vec3 ng_l = (scene.globals.texture_opts.w & gpu::SHADEOPT_PBRT_V4_SIDES)
                                ? glm::vec3(0.0f, 0.0f, 1.0f)
                                : sp.frame.to_local(sp.g.ng);
-    if (bsdf_is_nonspecular(bsdf))
+    // Next-event estimation, unless the MIS mode samples the BSDF alone (path-spec 7.1).
+    if (bsdf_is_nonspecular(bsdf) && g.render_opts.y != gpu::MIS_BSDF_ONLY)
       L += beta * sample_direct(scene, sp, bsdf, wo, ng_l, b, r, nrays);
     // Continue the path by sampling the BSDF (stream +9).
     const BsdfSample bs =
@@ -158,9 +160,11 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
                                         spec_t, bs.eta, diff, diff);
     else
       has_diff = false;
-    // Russian roulette on beta etaScale (pbrt-v4 13.1.3), from the third vertex on.
+    // Russian roulette on beta etaScale (pbrt-v4 13.1.3) once the path has bounced more than
+    // once (pbrt-v4: from the third vertex on), or as render_opts.x says (path-spec 7.1).
     const float mb = max_component(beta * eta_scale);
-    if (mb < 1.0f && depth > 1) {
+    const std::uint32_t rr = g.render_opts.x;  // 0: pbrt-v4's start, 1; N + 1: start N
+    if (mb < 1.0f && rr != gpu::ROULETTE_OFF && depth > (rr == 0u ? 1u : rr - 1u)) {
       const float q = std::max(0.0f, 1.0f - mb);
       if (r(dim::bounce(b, dim::ROULETTE)) < q) break;
       beta /= 1.0f - q;

@@ -7,6 +7,8 @@
 
 #include <glm/glm.hpp>
 
+#include "../../shaders/shared/layout.h"
+
 namespace basalt::cpu {
 
 inline constexpr float PI = std::numbers::pi_v<float>;
@@ -101,6 +103,30 @@ inline float power_heuristic(float a, float b) {
   const float s = a2 + b * b;
   if (!(s > 0.0f)) return 0.0f;
   return a2 / s;
+}
+
+/// The balance heuristic a / (a + b) (Veach 1997 9.2.2); 1 when a is infinite, 0 when both
+/// are 0.
+inline float balance_heuristic(float a, float b) {
+  if (std::isinf(a)) return 1.0f;
+  const float s = a + b;
+  if (!(s > 0.0f)) return 0.0f;
+  return a / s;
+}
+
+/// The MIS weight of a light sample of density pl against BSDF density pb under MIS mode
+/// \p mode (path-spec 7.1: MIS_* of Globals.render_opts.y).
+inline float mis_light(std::uint32_t mode, float pl, float pb) {
+  if (mode == gpu::MIS_LIGHT_ONLY) return 1.0f;
+  return mode == gpu::MIS_BALANCE ? balance_heuristic(pl, pb) : power_heuristic(pl, pb);
+}
+
+/// The MIS weight of a BSDF-sampled hit on a light (BSDF density pb, light density pl) under
+/// MIS mode \p mode (path-spec 7.1).
+inline float mis_bsdf(std::uint32_t mode, float pb, float pl) {
+  if (mode == gpu::MIS_BSDF_ONLY) return 1.0f;
+  if (mode == gpu::MIS_LIGHT_ONLY) return 0.0f;
+  return mode == gpu::MIS_BALANCE ? balance_heuristic(pb, pl) : power_heuristic(pb, pl);
 }
 
 /// pbrt-v4 SmoothStep (docs/path-spec.md section 6, "spot"): Hermite step from a to b,

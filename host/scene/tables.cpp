@@ -869,6 +869,7 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
   g.tex_tables = texture_shared_tables(t.tex_data);
   min_differentials(g, scene.sampler.spp);
   g.camera_from_world = glm::mat4(glm::inverse(glm::dmat4(cam.world_from_camera)));
+  g.render_opts = glm::uvec4(0u);  // pbrt-v4's roulette and MIS (path-spec 7.1)
   g.texture_opts = glm::uvec4((scene.disable_texture_filtering ? gpu::TEXOPT_DISABLE_FILTERING : 0u) |
                                   gpu::TEXOPT_NOISE_SPLIT,
                               0u, 0u, 0u);
@@ -915,6 +916,24 @@ std::vector<std::string> feature_names(std::uint32_t features) {
   for (std::uint32_t bit = gpu::FEATURE_COUNT; bit < 32; ++bit)
     if (features & (1u << bit)) names.push_back("feature_" + std::to_string(bit));
   return names;
+}
+
+std::vector<std::pair<std::string, std::string>> apply_path_knobs(SceneTables& t, int max_depth,
+                                                                  std::uint32_t roulette_start,
+                                                                  std::uint32_t mis) {
+  static const char* kMis[] = {"power", "balance", "bsdf", "light"};
+  if (max_depth >= 0) t.globals.image.z = std::uint32_t(max_depth);
+  t.globals.render_opts.x = roulette_start == 1u               ? 0u
+                            : roulette_start == gpu::ROULETTE_OFF ? gpu::ROULETTE_OFF
+                                                                  : roulette_start + 1u;
+  t.globals.render_opts.y = mis <= gpu::MIS_LIGHT_ONLY ? mis : gpu::MIS_POWER;
+  std::vector<std::pair<std::string, std::string>> knobs;
+  knobs.emplace_back("maxdepth", std::to_string(t.globals.image.z));
+  knobs.emplace_back("roulette", roulette_start == gpu::ROULETTE_OFF ? "off"
+                                 : roulette_start == 1u            ? "pbrt-v4"
+                                                                   : std::to_string(roulette_start));
+  knobs.emplace_back("mis", kMis[t.globals.render_opts.y]);
+  return knobs;
 }
 
 }  // namespace basalt

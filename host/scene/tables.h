@@ -54,4 +54,13 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times = nullptr,
 /// \brief Names of the feature bits set in \p features, for --stats.
 std::vector<std::string> feature_names(std::uint32_t features);
 
+/// \brief The path knobs of the command line (docs/path-spec.md 7.1), applied to built tables:
+/// \p max_depth >= 0 replaces the Integrator's maxdepth; \p roulette_start is the depth after
+/// which Russian roulette may end a path (pbrt-v4's 1; gpu::ROULETTE_OFF: never; stored as
+/// render_opts.x of layout.h); \p mis is a
+/// gpu::MIS_* mode. Returns the knobs in force as name/value pairs for --stats.
+std::vector<std::pair<std::string, std::string>> apply_path_knobs(SceneTables& t, int max_depth,
+                                                                  std::uint32_t roulette_start,
+                                                                  std::uint32_t mis);
+
 }  // namespace basalt

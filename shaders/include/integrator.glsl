@@ -12,6 +12,23 @@
 #include "lights.glsl"
 #include "bsdf.glsl"
 
+// The MIS weight of a light sample (density pl) against BSDF density pb under
+// globals.render_opts.y (path-spec 7.1).
+float mis_light(float pl, float pb) {
+  uint mode = globals.render_opts.y;
+  if (mode == MIS_LIGHT_ONLY) return 1.0;
+  return mode == MIS_BALANCE ? balance_heuristic(pl, pb) : power_heuristic(pl, pb);
+}
+
+// The MIS weight of a BSDF-sampled hit on a light (BSDF density pb, light density pl) under
+// globals.render_opts.y (path-spec 7.1).
+float mis_bsdf(float pb, float pl) {
+  uint mode = globals.render_opts.y;
+  if (mode == MIS_BSDF_ONLY) return 1.0;
+  if (mode == MIS_LIGHT_ONLY) return 0.0;
+  return mode == MIS_BALANCE ? balance_heuristic(pb, pl) : power_heuristic(pb, pl);
+}
+
 // Radiance of an escaped ray of direction d from the infinite lights (uniform and
 // environment maps, through the one infinite_light_le call site), MIS-weighted against light
 // sampling unless the previous vertex could not sample lights (camera or specular).
@@ -23,7 +40,7 @@ vec3 escaped_radiance(vec3 o, vec3 d, vec3 p_prev, bool unweighted, float pdf_pr
       uint li = globals.infinite_lights[k];
       float pl;
       vec3 Le = infinite_light_le(li, o, p_prev, d, pl);
-      float w = unweighted ? 1.0 : power_heuristic(pdf_prev, pl);
+      float w = unweighted ? 1.0 : mis_bsdf(pdf_prev, pl);
       L += w * Le;
     }
   }
@@ -74,7 +91,7 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
         if (!(depth == 0u || specular)) {
           float pl = lights[sp.light].pmf *
                      light_pdf(sp.light, p_prev, ng_prev, m_prev, sp.p, sp.ng, ray.d);
-          w = power_heuristic(pdf_prev, pl);
+          w = mis_bsdf(pdf_prev, pl);
         }
         L += beta * w * Le;
       }
@@ -119,8 +136,10 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
     // sampling. The BSDF queries of the bounce run in one loop through one bsdf_query call
     // site (see bsdf_query): step 0 NEE f (stream +7), 1 NEE pdf (+8), 2 sample (+9), 3 pdf
     // at the sampled wi when the sample's pdf is only proportional (+10).
+    // Next-event estimation, unless the MIS mode samples the BSDF alone (path-spec 7.1).
     bool nee = (FEATURES & FEATURE_ANY_LIGHT) != 0u && num_lights > 0u &&
-               (bsdf_flags(bsdf) & (BSDF_DIFFUSE | BSDF_GLOSSY)) != 0u;
+               (bsdf_flags(bsdf) & (BSDF_DIFFUSE | BSDF_GLOSSY)) != 0u &&
+               globals.render_opts.y != MIS_BSDF_ONLY;
     LightSample ls;
     float pmf = 0.0;
     vec3 wi_l = vec3(0.0), f_nee = vec3(0.0);
@@ -155,7 +174,7 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
         if (!lit || ls.delta) step = 1u;  // no MIS weight needed
       } else if (step == 1u) {
         float pl = pmf * ls.pdf;
-        L += beta * f_nee * ls.Li * power_heuristic(pl, r.pdf) / pl;
+        L += beta * f_nee * ls.Li * mis_light(pl, r.pdf) / pl;
       } else if (step == 2u) {
         bs = r.bs;
         if (bs.flags == 0u) break;
@@ -184,9 +203,11 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
     else
       has_diff = false;
 
-    // Russian roulette on beta x etaScale (pbrt-v4 13.4.2).
+    // Russian roulette on beta x etaScale (pbrt-v4 13.4.2) once the path has bounced more than
+    // once, or as render_opts.x says (0: pbrt-v4's; N + 1: more than N times; path-spec 7.1).
     float bmax = max_component(beta * eta_scale);
-    if (bmax < 1.0 && depth > 1u) {
+    uint rr = globals.render_opts.x;
+    if (bmax < 1.0 && rr != ROULETTE_OFF && depth > (rr == 0u ? 1u : rr - 1u)) {
       float q = max(0.0, 1.0 - bmax);
       if (rng(px, py, s, dim + DIM_ROULETTE) < q) break;
       beta /= 1.0 - q;

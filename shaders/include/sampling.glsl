@@ -70,6 +70,15 @@ float power_heuristic(float a, float b) {
   return s > 0.0 ? a2 / s : 0.0;
 }
 
+// The balance heuristic a / (a + b) (Veach 1997 9.2.2); 1 when a is infinite, 0 when both are 0.
+float balance_heuristic(float a, float b) {
+  if (isinf(a)) return 1.0;
+  precise float s = a + b;
+  if (!(s > 0.0)) return 0.0;
+  return a / s;
+}
+
+
 // pbrt-v4 SmoothStep (docs/path-spec.md section 6, "spot"): Hermite step from a to b, a hard
 // step when a == b (GLSL smoothstep is undefined for a >= b, hence this twin).
 float smooth_step(float x, float a, float b) {

@@ -268,7 +268,17 @@ BASALT_CONST uint TEXOPT_NOISE_SPLIT = 1u << 1;        // noise lookup point spl
 BASALT_CONST uint TEXOPT_BUMP_CENTRAL = 1u << 2;       // bump: central differences (bump-spec 4.5)
 BASALT_CONST uint TEXOPT_BUMP_NO_DNDU = 1u << 3;       // bump: drop the d dn/du term (bump-spec 4.5)
 // Globals.texture_opts.w: shading options
-BASALT_CONST uint SHADEOPT_PBRT_V4_SIDES = 1u << 0;  // the shading frame alone decides reflection
+BASALT_CONST uint SHADEOPT_PBRT_V4_SIDES = 1u << 0;
+// Globals.render_opts (path-spec 7.1), all zero by default (pbrt-v4's behaviour): x = when
+// Russian roulette may end a path: 0 once it has bounced more than once (pbrt-v4), N + 1 once
+// it has bounced more than N times, ROULETTE_OFF never; y = the MIS mode of light and BSDF
+// sampling.
+BASALT_CONST uint ROULETTE_OFF = 0xffffffffu;
+BASALT_CONST uint MIS_POWER = 0u;      // Veach's power heuristic, beta 2 (pbrt-v4)
+BASALT_CONST uint MIS_BALANCE = 1u;    // the balance heuristic
+BASALT_CONST uint MIS_BSDF_ONLY = 2u;  // BSDF sampling alone (no next-event estimation)
+BASALT_CONST uint MIS_LIGHT_ONLY = 3u; // light sampling alone (BSDF-sampled hits on lights
+                                       // count only after specular bounces and camera rays)  // the shading frame alone decides reflection
                                                     // or transmission (pbrt-v4; materials-spec 1.2)
 
 // Offsets into tex_data of the shared tables (Globals.tex_tables), docs/textures-spec.md 5.
@@ -322,6 +332,7 @@ struct Globals {
                            // (float bits; 0: from the footprint, bump-spec 4.5), w: SHADEOPT_*
   uvec4 tex_tables;        // offsets into tex_data (see EWA_LUT_SIZE above)
   mat4 camera_from_world;  // inverse of world_from_camera (Approximate_dp_dxy)
+  uvec4 render_opts;       // x: roulette (0: pbrt-v4's; see ROULETTE_OFF), y: MIS_*, z, w: unused
 };
 
 /// BVH node: interior when b == 0 (children at a and a+1), else leaf over prim_refs[a, a+b).
@@ -506,7 +517,7 @@ struct ProbeOut {
 
 #ifdef __cplusplus
 static_assert(sizeof(ProbeIn) == 96 && sizeof(ProbeOut) == 80, "Probe layout");
-static_assert(sizeof(Globals) == 64 + 4 * 16 + 4 * 16 + 6 * 16 + 64, "Globals layout");
+static_assert(sizeof(Globals) == 64 + 4 * 16 + 4 * 16 + 6 * 16 + 64 + 16, "Globals layout");
 static_assert(sizeof(BvhNode) == 32 && offsetof(BvhNode, hi) == 16, "BvhNode layout");
 static_assert(sizeof(Triangle) == 16, "Triangle layout");
 static_assert(sizeof(Vertex) == 32, "Vertex layout");

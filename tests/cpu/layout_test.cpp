@@ -8,7 +8,8 @@
 using namespace basalt::gpu;
 
 TEST(Layout, SizesAndOffsets) {
-  EXPECT_EQ(sizeof(Globals), 352u);
+  EXPECT_EQ(sizeof(Globals), 368u);
+  EXPECT_EQ(offsetof(Globals, render_opts), 352u);
   EXPECT_EQ(offsetof(Globals, camera_from_world), 288u);
   EXPECT_EQ(offsetof(Globals, screen), 64u);
   EXPECT_EQ(offsetof(Globals, lens), 80u);
