@@ -24,6 +24,7 @@
 #include "cpu/intersect.h"
 #include "cpu/probe.h"
 #include "cpu/surface.h"
+#include "common/bump_scenes.h"
 #include "common/test_util.h"
 #include "image/image_io.h"
 #include "cpu/noise.h"
@@ -710,26 +711,6 @@ TEST(Bump, NormalMapTexelZeroOrBelowSurface) {
 // shading normal (the light-leak rule integrates |n' . wi| over ng's hemisphere, which is pi
 // for every unit n'): so the bumped image's mean must equal the unbumped one's within the
 // Monte Carlo noise (4 standard errors of the difference), with no NaN and no black pixel.
-/// The steep stripe bump of LargeDisplacementFlip (\p bumped) or the same plane unbumped.
-std::string steep_scene(bool bumped) {
-    return std::string(R"(
-LookAt 0 0 3  0 0 0  0 1 0
-Camera "perspective" "float fov" [ 30 ]
-Film "rgb" "integer xresolution" [ 48 ] "integer yresolution" [ 48 ]
-Sampler "independent" "integer pixelsamples" [ 64 ]
-Integrator "path" "integer maxdepth" [ 5 ]
-WorldBegin
-LightSource "infinite" "rgb L" [ 1 1 1 ]
-Texture "steep" "float" "stripe" "string form" "smooth" "float width" [ 0.1 ]
-  "float tex1" [ 0 ] "float tex2" [ 0.2 ]
-Material "diffuse" "rgb reflectance" [ 0.5 0.5 0.5 ] )") +
-           (bumped ? "\"texture displacement\" \"steep\"" : "") + R"(
-Shape "trianglemesh" "point3 P" [ -2 -2 0  2 -2 0  2 2 0  -2 2 0 ]
-  "integer indices" [ 0 1 2  0 2 3 ] "point2 uv" [ 0 0  1 0  1 1  0 1 ]
-  "normal N" [ 0.5 0 1  0.5 0 1  0.5 0 1  0.5 0 1 ]
-)";
-}
-
 TEST(Bump, LargeDisplacementFlip) {
   auto scene = steep_scene;
   const SceneTables tb = tables_from_string(scene(true));

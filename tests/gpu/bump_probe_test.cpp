@@ -43,6 +43,7 @@
 
 #include <unistd.h>
 
+#include "common/bump_scenes.h"
 #include "common/test_util.h"
 #include "image/image_io.h"
 #include "scene/textures.h"
@@ -850,25 +851,6 @@ Shape "trianglemesh" "point3 P" [ -3 -1 1  3 -1 1  3 2 1  -3 2 1 ]
 // Displacement large enough to flip the bumped normal below the geometric horizon (seed 000
 // Fig. 9.2): the GPU render of the steep stripe bump has no black pixel and the mean of the
 // unbumped plane (within 4 standard errors: no light leak, no energy lost), as on the CPU.
-/// A plane bumped by a steep stripe (\p bumped) or not, under a sky, 48 x 48.
-std::string steep_scene(bool bumped) {
-    return std::string(R"(
-LookAt 0 0 3  0 0 0  0 1 0
-Camera "perspective" "float fov" [ 30 ]
-Film "rgb" "integer xresolution" [ 48 ] "integer yresolution" [ 48 ]
-Integrator "path" "integer maxdepth" [ 5 ]
-WorldBegin
-LightSource "infinite" "rgb L" [ 1 1 1 ]
-Texture "steep" "float" "stripe" "string form" "smooth" "float width" [ 0.1 ]
-  "float tex1" [ 0 ] "float tex2" [ 0.2 ]
-Material "diffuse" "rgb reflectance" [ 0.5 0.5 0.5 ] )") +
-           (bumped ? "\"texture displacement\" \"steep\"" : "") + R"(
-Shape "trianglemesh" "point3 P" [ -2 -2 0  2 -2 0  2 2 0  -2 2 0 ]
-  "integer indices" [ 0 1 2  0 2 3 ] "point2 uv" [ 0 0  1 0  1 1  0 1 ]
-  "normal N" [ 0.5 0 1  0.5 0 1  0.5 0 1  0.5 0 1 ]
-)";
-}
-
 TEST(BumpRender, LargeDisplacementFlip) {
   auto scene = steep_scene;
   const std::uint32_t spp = 64;
