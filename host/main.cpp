@@ -12,6 +12,7 @@
 
 #include "cpu/render.h"
 #include "image/image_io.h"
+#include "scene/samplers.h"
 #include "scene/scene.h"
 #include "scene/tables.h"
 #include "util/progress.h"
@@ -37,7 +38,7 @@ struct Options {
   std::string scene, device = "auto", stats, mix = "auto", texture_filter = "scene",
               noise_precision = "split", bump_differences = "forward", bump_dndu = "on",
               bump_step = "footprint", shading_normal_rule = "geometric", roulette = "pbrt-v4",
-              mis = "power";
+              mis = "power", sampler = "scene";
   int max_depth = -1;  // -1: the scene's Integrator "maxdepth"
   int noise_octaves = 0;
   float displacement_edge_scale = 0.0f;  // 0: the scene's Option "displacementedgescale"
@@ -63,6 +64,16 @@ int run(const Options& opt) {
   if (opt.displacement_edge_scale > 0.0f)
     scene.displacement_edge_scale = opt.displacement_edge_scale;
   if (opt.seed >= 0) scene.sampler.seed = int(opt.seed);
+  if (opt.sampler != "scene") {
+    // --sampler: pbrt-v4's sampler of that name with its default randomisation.
+    scene.sampler.type = opt.sampler;
+    scene.sampler.randomization.clear();
+  }
+  {
+    std::string warning;
+    scene.sampler = basalt::resolve_sampler(scene.sampler, &warning);
+    if (!warning.empty()) std::cerr << warning << "\n";
+  }
   std::vector<std::string> outputs = opt.outputs;
   if (outputs.empty()) outputs.push_back(scene.film.filename);
   for (const auto& output : outputs)
@@ -101,6 +112,14 @@ int run(const Options& opt) {
                                                    : basalt::gpu::MIS_POWER;
     for (auto& k : basalt::apply_path_knobs(tables, opt.max_depth, start, mis))
       st.quality.push_back(k);
+    static const char* kRand[] = {"none", "permutedigits", "fastowen", "owen"};
+    const glm::uvec4 smp = tables.globals.sampler_opts;
+    st.quality.emplace_back(
+        "sampler", scene.sampler.type +
+                       (smp.x == basalt::gpu::SAMPLER_STRATIFIED
+                            ? std::string(smp.y ? " jitter" : " no jitter")
+                        : smp.x == basalt::gpu::SAMPLER_INDEPENDENT ? std::string()
+                                                                    : std::string(" ") + kRand[smp.y]));
     st.quality.emplace_back("displacement_edge_scale",
                             std::to_string(scene.displacement_edge_scale));
   }
@@ -243,6 +262,11 @@ int main(int argc, char** argv) {
                  "scale every displaced plymesh's \"edgelength\" (pbrt-v4's option of the same "
                  "name; default: the scene's Option \"displacementedgescale\", else 1)")
       ->check(CLI::PositiveNumber);
+  app.add_option("--sampler", opt.sampler,
+                 "sampler instead of the scene's (docs/sampler-spec.md): independent, "
+                 "stratified, halton, paddedsobol or zsobol")
+      ->check(CLI::IsMember({"scene", "independent", "stratified", "halton", "paddedsobol",
+                             "zsobol"}));
   app.add_option("--stats", opt.stats, "write render statistics as JSON to this file");
   app.add_flag("-q,--quiet", opt.quiet, "no progress bar or summary");
   app.add_flag("--list-devices", list, "list Vulkan devices and exit");

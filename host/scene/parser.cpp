@@ -550,8 +550,11 @@ void Parser::film(Tokenizer& tok, const Token& d) {
   scene_.film = f;
 }
 
-// Sampler: only the sample count and seed carry over; basalt samples with its own
-// counter-based generator (docs/path-spec.md section 1).
+/// Largest sample count per pixel (the --spp limit too).
+constexpr int kMaxSpp = 1 << 24;
+
+// Sampler (docs/sampler-spec.md): pbrt-v4's samplers, with their sample counts, seed and
+// randomisation; "sobol" and "pmj02bn" render with zsobol and a warning.
 void Parser::sampler(Tokenizer& tok, const Token& d) {
   verify_options(d);
   std::string type = string_arg(tok, d, "a sampler type");
@@ -559,16 +562,44 @@ void Parser::sampler(Tokenizer& tok, const Token& d) {
   Sampler s;
   if (type == "stratified") {
     // pbrt-v4 StratifiedSampler::Create: xsamples x ysamples per pixel, 4 x 4 by default.
-    s.spp = positive_int(ps, "xsamples", 4, d.loc) * positive_int(ps, "ysamples", 4, d.loc);
+    s.xsamples = positive_int(ps, "xsamples", 4, d.loc);
+    s.ysamples = positive_int(ps, "ysamples", 4, d.loc);
+    s.jitter = ps.get_bool("jitter", true);
+    if (std::int64_t(s.xsamples) * s.ysamples > kMaxSpp)
+      throw SceneError(d.loc, "Sampler 'stratified': xsamples x ysamples = " +
+                                  std::to_string(std::int64_t(s.xsamples) * s.ysamples) +
+                                  " exceeds basalt's limit of 2^24 samples per pixel");
+    s.spp = s.xsamples * s.ysamples;
   } else {
     s.spp = positive_int(ps, "pixelsamples", 16, d.loc);
+    if (s.spp > kMaxSpp)
+      throw SceneError(ps.loc_of("pixelsamples", d.loc),
+                       "pixelsamples " + std::to_string(s.spp) +
+                           " exceeds basalt's limit of 2^24 samples per pixel");
+  }
+  if (type == "halton" || type == "sobol" || type == "paddedsobol" || type == "zsobol") {
+    s.randomization = ps.get_string("randomization", "");
+    static const char* kRand[] = {"", "none", "permutedigits", "fastowen", "owen"};
+    if (std::find(std::begin(kRand), std::end(kRand), s.randomization) == std::end(kRand))
+      throw SceneError(d.loc, "Sampler '" + type + "': unknown randomization '" +
+                                  s.randomization +
+                                  "' (none, permutedigits, fastowen or owen)");
+    if (type == "halton" && s.randomization == "fastowen")
+      throw SceneError(d.loc, "Sampler 'halton': randomization 'fastowen' is not supported "
+                              "(pbrt-v4 refuses it too)");
   }
   sampler_seed_given_ = ps.find("seed") != nullptr;
   s.seed = ps.get_int("seed", 0);
-  if (type != "independent" && type != "zsobol")
-    warn(d.loc, "Sampler '" + type +
-                    "': basalt uses its own counter-based sampler; only the sample count and "
-                    "seed are used");
+  s.type = type;
+  if (type == "sobol" || type == "pmj02bn") {
+    warn(d.loc, "Sampler '" + type + "' is rendered with 'zsobol' (docs/sampler-spec.md 5)");
+    s.type = "zsobol";
+  } else if (type != "independent" && type != "stratified" && type != "halton" &&
+             type != "paddedsobol" && type != "zsobol") {
+    throw SceneError(d.loc, "unknown Sampler '" + type +
+                                "' (independent, stratified, halton, sobol, paddedsobol, "
+                                "zsobol or pmj02bn)");
+  }
   ps.report_unused("Sampler '" + type + "'", scene_.warnings);
   scene_.sampler = s;
 }

@@ -47,9 +47,15 @@ struct Film {
   SourceLoc loc;
 };
 
+/// The scene's `Sampler` (docs/sampler-spec.md): pbrt-v4's name, sample count and options.
 struct Sampler {
+  std::string type = "independent";  // independent, stratified, halton, paddedsobol, zsobol
   int spp = 16;
   int seed = 0;
+  int xsamples = 4, ysamples = 4;     // stratified
+  bool jitter = true;                 // stratified
+  std::string randomization;          // "" (the sampler's default), none, permutedigits,
+                                      // fastowen, owen
 };
 
 struct Filter {

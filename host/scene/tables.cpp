@@ -12,6 +12,7 @@
 #include "accel/bvh.h"
 #include "scene/displace.h"
 #include "scene/materials.h"
+#include "scene/samplers.h"
 #include "scene/textures.h"
 
 namespace basalt {
@@ -867,12 +868,14 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
 
   // ---- textures: shared tables, footprint and options (docs/textures-spec.md) ---------------
   g.tex_tables = texture_shared_tables(t.tex_data);
-  min_differentials(g, scene.sampler.spp);
+  const Sampler sampler = resolve_sampler(scene.sampler);
+  min_differentials(g, sampler.spp);
   g.camera_from_world = glm::mat4(glm::inverse(glm::dmat4(cam.world_from_camera)));
   g.render_opts = glm::uvec4(0u);  // pbrt-v4's roulette and MIS (path-spec 7.1)
   g.texture_opts = glm::uvec4((scene.disable_texture_filtering ? gpu::TEXOPT_DISABLE_FILTERING : 0u) |
                                   gpu::TEXOPT_NOISE_SPLIT,
                               0u, 0u, 0u);
+  sampler_tables(t, sampler);  // docs/sampler-spec.md 3
   return t;
 }
 

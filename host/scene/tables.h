@@ -28,6 +28,7 @@ struct SceneTables {
   std::vector<gpu::MipLevel> mip_levels;  // every level of every image (finest first)
   std::vector<float> texels;              // image levels, linear, channel-interleaved
   std::vector<float> tex_data;            // shared tables (docs/textures-spec.md 5)
+  std::vector<std::uint32_t> sampler_data;  // primes (docs/sampler-spec.md 3)
   std::uint32_t features = 0;     // FEATURE_* bits
   std::uint32_t features2 = 0;    // FEATURE2_* bits
 

@@ -160,7 +160,15 @@ Context::Context(const std::string& selector, bool validation) {
   float priority = 1.0f;
   vk::DeviceQueueCreateInfo queue_info{
       .queueFamilyIndex = queue_family, .queueCount = 1, .pQueuePriorities = &priority};
-  device = physical.createDevice({.queueCreateInfoCount = 1, .pQueueCreateInfos = &queue_info});
+  // 64-bit integers: the sample indices of the halton and zsobol samplers
+  // (docs/sampler-spec.md 4); every desktop driver and lavapipe have them.
+  if (!physical.getFeatures().shaderInt64)
+    throw std::runtime_error(info_.name + " lacks shaderInt64, which basalt's samplers need");
+  vk::PhysicalDeviceFeatures features{};
+  features.shaderInt64 = VK_TRUE;
+  device = physical.createDevice({.queueCreateInfoCount = 1,
+                                  .pQueueCreateInfos = &queue_info,
+                                  .pEnabledFeatures = &features});
   VULKAN_HPP_DEFAULT_DISPATCHER.init(device);
   queue = device.getQueue(queue_family, 0);
   pool = device.createCommandPool({.flags = vk::CommandPoolCreateFlagBits::eResetCommandBuffer,

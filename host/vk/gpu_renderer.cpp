@@ -43,7 +43,7 @@ const char* kTableNames[] = {"globals", "BVH nodes", "primitive refs", "triangle
                              "lights",   "light cdf", "filter table",   "accumulation", "counters",
                              "measured BRDF", "textures",   "image levels", "texels",
                              "texture data", "texels (chunk 1)", "texels (chunk 2)",
-                             "texels (chunk 3)"};
+                             "texels (chunk 3)", "sampler data"};
 
 /// Feature bits the lean render shader (BASALT_LEAN_MATERIALS) implements: everything but
 /// the material kinds other than diffuse. A feature added to layout.h later is not in this
@@ -113,7 +113,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
       {nullptr, 4 * sizeof(std::uint32_t)},
       optional_table(t.measured), optional_table(t.textures), optional_table(t.mip_levels),
       texel_chunk(0), optional_table(t.tex_data), texel_chunk(1), texel_chunk(2),
-      texel_chunk(3)};
+      texel_chunk(3), optional_table(t.sampler_data)};
   if (t.texels.size() > (std::size_t(TEXEL_CHUNK_COUNT) << TEXEL_CHUNK_SHIFT))
     throw std::runtime_error("scene too large: its images need " +
                              std::to_string(t.texels.size() * sizeof(float)) +

@@ -48,6 +48,8 @@ BASALT_TABLE(TEXELS1, TexelBuffer1, float, texels1);
 BASALT_TABLE(TEXELS2, TexelBuffer2, float, texels2);
 BASALT_TABLE(TEXELS3, TexelBuffer3, float, texels3);
 BASALT_TABLE(TEX_DATA, TexDataBuffer, float, tex_data);
+// The first SAMPLER_PRIME_COUNT primes (docs/sampler-spec.md 3).
+BASALT_TABLE(SAMPLER_DATA, SamplerDataBuffer, uint, sampler_data);
 
 // Float g of the texel table, which spans up to TEXEL_CHUNK_COUNT bindings of 2^25 floats
 // (layout.h): every texel read goes through here.

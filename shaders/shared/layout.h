@@ -47,7 +47,9 @@ using mat4 = glm::mat4;
 #define BINDING_TEXELS1 18   // texels chunks 1, 2 and 3 (floats TEXEL_CHUNK k .. ); each binding
 #define BINDING_TEXELS2 19   //   stays within every device's maxStorageBufferRange (at least
 #define BINDING_TEXELS3 20   //   2^27 bytes in Vulkan), so image data may total 512 MiB
-#define BINDING_COUNT 21
+#define BINDING_SAMPLER_DATA 21  // uint sampler_data[]: the first SAMPLER_PRIME_COUNT primes
+                                 //   (docs/sampler-spec.md 3)
+#define BINDING_COUNT 22
 // Texel index g (a float index into the whole texel table) lives in chunk g >> TEXEL_CHUNK_SHIFT
 // at index g & (TEXEL_CHUNK - 1) of that chunk's binding.
 #define TEXEL_CHUNK_SHIFT 25u
@@ -281,6 +283,18 @@ BASALT_CONST uint MIS_LIGHT_ONLY = 3u; // light sampling alone (BSDF-sampled hit
                                        // count only after specular bounces and camera rays)  // the shading frame alone decides reflection
                                                     // or transmission (pbrt-v4; materials-spec 1.2)
 
+// Globals.sampler_opts.x: the sampler (docs/sampler-spec.md 3); y: its randomisation.
+BASALT_CONST uint SAMPLER_INDEPENDENT = 0u;
+BASALT_CONST uint SAMPLER_STRATIFIED = 1u;
+BASALT_CONST uint SAMPLER_HALTON = 2u;
+BASALT_CONST uint SAMPLER_PADDED_SOBOL = 3u;
+BASALT_CONST uint SAMPLER_ZSOBOL = 4u;
+BASALT_CONST uint RAND_NONE = 0u;
+BASALT_CONST uint RAND_PERMUTE = 1u;
+BASALT_CONST uint RAND_FASTOWEN = 2u;
+BASALT_CONST uint RAND_OWEN = 3u;
+BASALT_CONST uint SAMPLER_PRIME_COUNT = 1000u;  // primes at the start of sampler_data
+
 // Offsets into tex_data of the shared tables (Globals.tex_tables), docs/textures-spec.md 5.
 // tex_tables.x: noise permutation (512 floats holding integers), y: EWA weight table
 // (EWA_LUT_SIZE floats), z: Shirley gradients (256 x 3 floats) and permutation (256), w: unused.
@@ -333,6 +347,8 @@ struct Globals {
   uvec4 tex_tables;        // offsets into tex_data (see EWA_LUT_SIZE above)
   mat4 camera_from_world;  // inverse of world_from_camera (Approximate_dp_dxy)
   uvec4 render_opts;       // x: roulette (0: pbrt-v4's; see ROULETTE_OFF), y: MIS_*, z, w: unused
+  uvec4 sampler_opts;      // x: SAMPLER_*, y: RAND_* (stratified: jitter 1/0), z, w: n0, n1
+  uvec4 sampler_params;    // type-specific (docs/sampler-spec.md 3)
 };
 
 /// BVH node: interior when b == 0 (children at a and a+1), else leaf over prim_refs[a, a+b).
@@ -495,6 +511,9 @@ BASALT_CONST uint PROBE_DIFFERENTIALS = 10u;
 //        pair of bump-spec 3 when no bump applies), f3.xyz = the shading frame's t1;
 //        u.x = prim, u.y = 1 when a bump or normal map changed the frame
 BASALT_CONST uint PROBE_BUMP = 11u;
+// PROBE_SAMPLER: sampler_get(px, py, s, d) of the scene's sampler (docs/sampler-spec.md 4);
+// in: key.yzw = px, py, s; extra.x = d (as uint bits) -> out: f0.x = the value
+BASALT_CONST uint PROBE_SAMPLER = 12u;
 
 /// One probe query.
 struct ProbeIn {
@@ -517,7 +536,7 @@ struct ProbeOut {
 
 #ifdef __cplusplus
 static_assert(sizeof(ProbeIn) == 96 && sizeof(ProbeOut) == 80, "Probe layout");
-static_assert(sizeof(Globals) == 64 + 4 * 16 + 4 * 16 + 6 * 16 + 64 + 16, "Globals layout");
+static_assert(sizeof(Globals) == 64 + 4 * 16 + 4 * 16 + 6 * 16 + 64 + 3 * 16, "Globals layout");
 static_assert(sizeof(BvhNode) == 32 && offsetof(BvhNode, hi) == 16, "BvhNode layout");
 static_assert(sizeof(Triangle) == 16, "Triangle layout");
 static_assert(sizeof(Vertex) == 32, "Vertex layout");

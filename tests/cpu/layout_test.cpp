@@ -8,7 +8,9 @@
 using namespace basalt::gpu;
 
 TEST(Layout, SizesAndOffsets) {
-  EXPECT_EQ(sizeof(Globals), 368u);
+  EXPECT_EQ(sizeof(Globals), 400u);
+  EXPECT_EQ(offsetof(Globals, sampler_opts), 368u);
+  EXPECT_EQ(offsetof(Globals, sampler_params), 384u);
   EXPECT_EQ(offsetof(Globals, render_opts), 352u);
   EXPECT_EQ(offsetof(Globals, camera_from_world), 288u);
   EXPECT_EQ(offsetof(Globals, screen), 64u);
