@@ -4,6 +4,7 @@
 #include <cfloat>
 
 #include "cpu/rng.h"
+#include "cpu/sampler.h"
 #include "cpu/sampling.h"
 
 namespace basalt::cpu {
@@ -47,7 +48,7 @@ struct FilmSample {
 FilmSample film_sample(const SceneTables& scene, std::uint32_t px, std::uint32_t py,
                        std::uint32_t s) {
   const gpu::Globals& g = scene.globals;
-  const PathRng r{px, py, s, g.image.w};
+  const PathRng r{px, py, s, g.image.w, sampler_of(scene)};
   // Step 1-2: film position of the filter sample.
   const glm::vec2 off = filter_offset(scene, glm::vec2(r(dim::FILTER_X), r(dim::FILTER_Y)));
   FilmSample fs{glm::vec2(float(px) + 0.5f + off.x, float(py) + 0.5f + off.y), glm::vec2(0.0f)};

@@ -7,6 +7,7 @@
 
 #include "cpu/bsdf.h"
 #include "cpu/camera.h"
+#include "cpu/sampler.h"
 #include "cpu/lights.h"
 #include "cpu/sampling.h"
 #include "cpu/surface.h"
@@ -176,7 +177,7 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
 
 glm::vec3 path_radiance(const SceneTables& scene, std::uint32_t px, std::uint32_t py,
                         std::uint32_t s, std::uint64_t* rays) {
-  const PathRng r{px, py, s, scene.globals.image.w};
+  const PathRng r{px, py, s, scene.globals.image.w, sampler_of(scene)};
   if (scene.features & gpu::FEATURE_TEXTURES) {
     const CameraRay c = camera_ray_differential(scene, px, py, s);
     RayDifferential diff{c.rx_o, c.rx_d, c.ry_o, c.ry_d};

@@ -12,6 +12,7 @@
 #include "cpu/intersect.h"
 #include "cpu/noise.h"
 #include "cpu/rng.h"
+#include "cpu/sampler.h"
 #include "cpu/surface.h"
 #include "cpu/texture.h"
 
@@ -47,6 +48,10 @@ std::vector<gpu::ProbeOut> probe(const SceneTables& scene, const std::vector<gpu
       case gpu::PROBE_RNG:
         o.f0.x = rng(q.key.y, q.key.z, q.key.w, std::bit_cast<std::uint32_t>(q.extra.x),
                      scene.globals.image.w);
+        break;
+      case gpu::PROBE_SAMPLER:
+        o.f0.x = sampler_get(scene, q.key.y, q.key.z, q.key.w,
+                             std::bit_cast<std::uint32_t>(q.extra.x));
         break;
       case gpu::PROBE_CAMERA: {
         const Ray c = camera_ray(scene, q.key.y, q.key.z, q.key.w);

@@ -4,7 +4,15 @@
 
 #include <glm/glm.hpp>
 
+namespace basalt {
+struct SceneTables;
+}
+
 namespace basalt::cpu {
+
+/// Value of path dimension d under the scene's sampler (cpu/sampler.cpp).
+float sampler_get(const SceneTables& scene, std::uint32_t px, std::uint32_t py,
+                  std::uint32_t s, std::uint32_t d);
 
 /// Random dimensions of docs/path-spec.md section 1 (table "Dimensions").
 namespace dim {
@@ -69,11 +77,16 @@ struct Stream {
   float operator()() { return stream_element(key, j++); }
 };
 
-/// The random stream of one path: rng() with pixel, sample and seed fixed.
+/// The random stream of one path: the scene's sampler (docs/sampler-spec.md) with pixel,
+/// sample and seed fixed; `sampler` (the scene) is null for the
+/// independent sampler, which is rng().
 struct PathRng {
   std::uint32_t px, py, sample, seed;
+  const SceneTables* sampler = nullptr;  // the scene, for samplers other than independent
   /// Value of dimension d of this path.
-  float operator()(std::uint32_t d) const { return rng(px, py, sample, d, seed); }
+  float operator()(std::uint32_t d) const {
+    return sampler ? sampler_get(*sampler, px, py, sample, d) : rng(px, py, sample, d, seed);
+  }
   /// Base key of the stream of dimension d of this path (docs/materials-spec.md section 5).
   glm::uvec4 stream(std::uint32_t d) const { return stream_key(px, py, sample, d, seed); }
 };
