@@ -38,7 +38,9 @@ struct Options {
   std::string scene, device = "auto", stats, mix = "auto", texture_filter = "scene",
               noise_precision = "split", bump_differences = "forward", bump_dndu = "on",
               bump_step = "footprint", shading_normal_rule = "geometric", roulette = "pbrt-v4",
-              mis = "power", sampler = "scene";
+              mis = "power", sampler = "scene", light_sampler = "scene",
+              pipeline = "specialised";
+  int bvh_bins = 32, bvh_leaf = 8, coated_nsamples = 0, coated_maxdepth = 0;
   int max_depth = -1;  // -1: the scene's Integrator "maxdepth"
   int noise_octaves = 0;
   float displacement_edge_scale = 0.0f;  // 0: the scene's Option "displacementedgescale"
@@ -64,6 +66,9 @@ int run(const Options& opt) {
   if (opt.displacement_edge_scale > 0.0f)
     scene.displacement_edge_scale = opt.displacement_edge_scale;
   if (opt.seed >= 0) scene.sampler.seed = int(opt.seed);
+  if (opt.light_sampler != "scene") scene.integrator.light_sampler = opt.light_sampler;
+  scene.bvh_bins = opt.bvh_bins;
+  scene.bvh_max_leaf = opt.bvh_leaf;
   if (opt.sampler != "scene") {
     // --sampler: pbrt-v4's sampler of that name with its default randomisation.
     scene.sampler.type = opt.sampler;
@@ -120,6 +125,12 @@ int run(const Options& opt) {
                             ? std::string(smp.y ? " jitter" : " no jitter")
                         : smp.x == basalt::gpu::SAMPLER_INDEPENDENT ? std::string()
                                                                     : std::string(" ") + kRand[smp.y]));
+    st.quality.emplace_back("light_sampler", scene.integrator.light_sampler);
+    for (auto& k : basalt::apply_layered_knobs(tables, opt.coated_nsamples, opt.coated_maxdepth))
+      st.quality.push_back(k);
+    st.quality.emplace_back("bvh_bins", std::to_string(opt.bvh_bins));
+    st.quality.emplace_back("bvh_leaf", std::to_string(opt.bvh_leaf));
+    st.quality.emplace_back("pipeline", opt.pipeline);
     st.quality.emplace_back("displacement_edge_scale",
                             std::to_string(scene.displacement_edge_scale));
   }
@@ -150,7 +161,11 @@ int run(const Options& opt) {
     basalt::vkx::Context ctx(opt.device, basalt::vkx::Context::validation_requested());
     st.device = ctx.info().name;
     st.driver = ctx.info().driver;
-    basalt::vkx::GpuRenderer gpu(ctx, tables);
+    // --pipeline all: every feature's code compiled in (a time-only knob: same image).
+    basalt::vkx::GpuRenderer gpu =
+        opt.pipeline == "all"
+            ? basalt::vkx::GpuRenderer(ctx, tables, 0xffffffffu, basalt::vkx::ShaderVariant::full)
+            : basalt::vkx::GpuRenderer(ctx, tables);
     st.seconds_upload = gpu.seconds_upload;
     st.seconds_pipeline = gpu.seconds_pipeline;
     st.shader_variant = gpu.variant;
@@ -267,6 +282,24 @@ int main(int argc, char** argv) {
                  "stratified, halton, paddedsobol or zsobol")
       ->check(CLI::IsMember({"scene", "independent", "stratified", "halton", "paddedsobol",
                              "zsobol"}));
+  app.add_option("--light-sampler", opt.light_sampler,
+                 "light selection instead of the scene's Integrator \"lightsampler\": bvh "
+                 "(default), power or uniform")
+      ->check(CLI::IsMember({"scene", "bvh", "power", "uniform"}));
+  app.add_option("--pipeline", opt.pipeline,
+                 "GPU pipeline: specialised to the scene's features (default) or all (every "
+                 "feature compiled in; same image, for timing)")
+      ->check(CLI::IsMember({"specialised", "all"}));
+  app.add_option("--bvh-bins", opt.bvh_bins, "SAH bins per axis of the BVH build (default 32)")
+      ->check(CLI::Range(2, 64));
+  app.add_option("--bvh-leaf", opt.bvh_leaf, "largest BVH leaf (default 8)")
+      ->check(CLI::Range(2, 16));
+  app.add_option("--coated-nsamples", opt.coated_nsamples,
+                 "replace every coated material's \"nsamples\" (default: the scene's)")
+      ->check(CLI::Range(1, 1024));
+  app.add_option("--coated-maxdepth", opt.coated_maxdepth,
+                 "replace every coated material's \"maxdepth\" (default: the scene's)")
+      ->check(CLI::Range(1, 1024));
   app.add_option("--stats", opt.stats, "write render statistics as JSON to this file");
   app.add_flag("-q,--quiet", opt.quiet, "no progress bar or summary");
   app.add_flag("--list-devices", list, "list Vulkan devices and exit");

@@ -37,6 +37,8 @@ class Builder {
       : items_(items),
         options_(options),
         bins_(std::clamp(options.bins, 2, kMaxBins)),
+        max_leaf_(std::uint32_t(std::clamp(options.max_leaf, 2, 16))),
+        leaf_always_(std::min(kBvhLeafAlways, max_leaf_)),
         thread_levels_(thread_levels) {}
 
   // Builds the subtree over items_[begin, end) into nodes[node]; children are appended to nodes.
@@ -53,7 +55,7 @@ class Builder {
     nodes[node].lo = box.lo;
     nodes[node].hi = box.hi;
     const std::uint32_t n = end - begin;
-    std::uint32_t mid = n <= kBvhLeafAlways ? 0 : split(begin, end, box, cbox, depth);
+    std::uint32_t mid = n <= leaf_always_ ? 0 : split(begin, end, box, cbox, depth);
     if (mid == 0) {  // leaf
       nodes[node].a = begin;
       nodes[node].b = n;
@@ -133,7 +135,7 @@ class Builder {
     }
     if (!usable[0] && !usable[1] && !usable[2]) {
       // All centroids coincide: no plane separates them.
-      return n <= kBvhMaxLeaf ? 0 : median_split(begin, end, cbox);
+      return n <= max_leaf_ ? 0 : median_split(begin, end, cbox);
     }
 
     std::array<std::array<Bin, kMaxBins>, 3> bins{};
@@ -181,9 +183,9 @@ class Builder {
       }
     }
     if (best_axis < 0)  // every centroid fell into one bin on every usable axis
-      return n <= kBvhMaxLeaf ? 0 : median_split(begin, end, cbox);
+      return n <= max_leaf_ ? 0 : median_split(begin, end, cbox);
     const double leaf_cost = kBvhIntersectCost * static_cast<double>(n) * area;
-    if (n <= kBvhMaxLeaf && leaf_cost <= best_cost) return 0;
+    if (n <= max_leaf_ && leaf_cost <= best_cost) return 0;
 
     const int a = best_axis;
     const float lo = cbox.lo[a], sc = scale[a];
@@ -212,6 +214,7 @@ class Builder {
   std::vector<Item>& items_;
   const BvhOptions& options_;
   const int bins_;
+  std::uint32_t max_leaf_, leaf_always_;
   const std::uint32_t thread_levels_;
 };
 

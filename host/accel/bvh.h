@@ -64,6 +64,9 @@ struct BvhOptions {
   Split split = Split::Sah;
   /// Bins per axis for the SAH (all three axes are binned); clamped to [2, 64].
   int bins = 32;
+  /// Largest leaf the SAH may choose (kBvhMaxLeaf by default); clamped to [2, 16]. Nodes of
+  /// up to min(kBvhLeafAlways, max_leaf) primitives are always leaves.
+  int max_leaf = int(kBvhMaxLeaf);
   /// Worker threads for the top-level subtrees; 0 = std::thread::hardware_concurrency().
   /// The result does not depend on the thread count.
   int max_threads = 0;

@@ -67,6 +67,7 @@ struct Filter {
 struct Integrator {
   int max_depth = 5;
   bool regularize = false;
+  std::string light_sampler = "bvh";  // "lightsampler": bvh, uniform or power (path-spec 6)
 };
 
 /// A material parameter: a constant (1 or 3 floats; 1 float of an rgb slot is grey) or a
@@ -225,6 +226,7 @@ struct Scene {
   std::map<std::string, int> image_index;  // image_key(file, encoding) -> images index
   bool disable_texture_filtering = false;  // Option "disabletexturefiltering"
   float displacement_edge_scale = 1.0f;    // Option "displacementedgescale" (> 0)
+  int bvh_bins = 32, bvh_max_leaf = 8;     // BVH build quality (--bvh-bins, --bvh-leaf)
   MixMode mix_mode = MixMode::Auto;     // set by the caller (--mix) before build_tables
   std::vector<std::string> warnings;  // "file:line:column: warning: ..."
 };

@@ -684,42 +684,7 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
   }
 
   // ---- light selection (path-spec section 6) ---------------------------------------------
-  // pbrt-v4's BVHLightSampler top-level split: each light of infinite extent (distant,
-  // infinite) with power is picked with probability 1 / (n_inf + 1), the bounded lights
-  // share the rest in proportion to their power (pbrt-v4 Light::Phi). Plain power sampling
-  // gives infinite lights pi R^2-scaled weights that starve small bright lights.
-  {
-    std::vector<double> power(t.lights.size());
-    for (std::size_t i = 0; i < t.lights.size(); ++i)
-      power[i] = light_power(t.lights[i], t.spheres, g.scene_sphere.w, t.mip_levels, t.texels);
-    auto infinite_extent = [](const gpu::Light& l) {
-      return l.type == gpu::LIGHT_DISTANT || l.type == gpu::LIGHT_INFINITE_UNIFORM ||
-             l.type == gpu::LIGHT_INFINITE_IMAGE;
-    };
-    double bounded_power = 0.0;
-    int n_inf = 0;
-    for (std::size_t i = 0; i < t.lights.size(); ++i) {
-      if (infinite_extent(t.lights[i]))
-        n_inf += power[i] > 0.0;
-      else
-        bounded_power += power[i];
-    }
-    if (n_inf > 0) {
-      const int shares = n_inf + (bounded_power > 0.0 ? 1 : 0);
-      for (std::size_t i = 0; i < t.lights.size(); ++i)
-        power[i] = infinite_extent(t.lights[i])
-                       ? (power[i] > 0.0 ? 1.0 / shares : 0.0)
-                       : (bounded_power > 0.0 ? power[i] / bounded_power / shares : 0.0);
-    }
-    if (t.lights.empty()) {
-      t.light_cdf = {0.0f};
-    } else {
-      t.light_cdf = cumulative(power);
-      // pmf is the float difference of the stored cdf, so both agree bit for bit.
-      for (std::size_t i = 0; i < t.lights.size(); ++i)
-        t.lights[i].pmf = t.light_cdf[i + 1] - t.light_cdf[i];
-    }
-  }
+  apply_light_sampler(t, scene.integrator.light_sampler);
 
   // ---- BVH over triangles then spheres ---------------------------------------------------
   {
@@ -728,7 +693,10 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
     bounds.insert(bounds.end(), tri_bounds.begin(), tri_bounds.end());
     bounds.insert(bounds.end(), sphere_bounds.begin(), sphere_bounds.end());
     const auto start = std::chrono::steady_clock::now();
-    Bvh bvh = build_bvh(bounds);
+    BvhOptions bvh_options;
+    bvh_options.bins = scene.bvh_bins;
+    bvh_options.max_leaf = scene.bvh_max_leaf;
+    Bvh bvh = build_bvh(bounds, {}, bvh_options);
     const auto stop = std::chrono::steady_clock::now();
     if (times) times->seconds_bvh = std::chrono::duration<double>(stop - start).count();
     t.nodes = std::move(bvh.nodes);
@@ -919,6 +887,59 @@ std::vector<std::string> feature_names(std::uint32_t features) {
   for (std::uint32_t bit = gpu::FEATURE_COUNT; bit < 32; ++bit)
     if (features & (1u << bit)) names.push_back("feature_" + std::to_string(bit));
   return names;
+}
+
+std::string apply_light_sampler(SceneTables& t, const std::string& mode) {
+  // "bvh" (the default): pbrt-v4's BVHLightSampler top-level split: each light of infinite
+  // extent (distant, infinite) with power is picked with probability 1 / (n_inf + 1), the
+  // bounded lights share the rest in proportion to their power (pbrt-v4 Light::Phi); basalt
+  // does not bound the lights in space below that split. "power": pbrt-v4's PowerLightSampler,
+  // every light in proportion to its power (infinite lights with their pi R^2-scaled power,
+  // which starves small bright lights). "uniform": pbrt-v4's UniformLightSampler.
+  std::vector<double> power(t.lights.size());
+  for (std::size_t i = 0; i < t.lights.size(); ++i)
+    power[i] = mode == "uniform" ? 1.0
+                                 : light_power(t.lights[i], t.spheres, t.globals.scene_sphere.w,
+                                               t.mip_levels, t.texels);
+  auto infinite_extent = [](const gpu::Light& l) {
+    return l.type == gpu::LIGHT_DISTANT || l.type == gpu::LIGHT_INFINITE_UNIFORM ||
+           l.type == gpu::LIGHT_INFINITE_IMAGE;
+  };
+  double bounded_power = 0.0;
+  int n_inf = 0;
+  for (std::size_t i = 0; i < t.lights.size(); ++i) {
+    if (infinite_extent(t.lights[i]))
+      n_inf += power[i] > 0.0;
+    else
+      bounded_power += power[i];
+  }
+  if (mode == "bvh" && n_inf > 0) {
+    const int shares = n_inf + (bounded_power > 0.0 ? 1 : 0);
+    for (std::size_t i = 0; i < t.lights.size(); ++i)
+      power[i] = infinite_extent(t.lights[i])
+                     ? (power[i] > 0.0 ? 1.0 / shares : 0.0)
+                     : (bounded_power > 0.0 ? power[i] / bounded_power / shares : 0.0);
+  }
+  if (t.lights.empty()) {
+    t.light_cdf = {0.0f};
+  } else {
+    t.light_cdf = cumulative(power);
+    // pmf is the float difference of the stored cdf, so both agree bit for bit.
+    for (std::size_t i = 0; i < t.lights.size(); ++i)
+      t.lights[i].pmf = t.light_cdf[i + 1] - t.light_cdf[i];
+  }
+  return mode;
+}
+
+std::vector<std::pair<std::string, std::string>> apply_layered_knobs(SceneTables& t,
+                                                                     int nsamples, int maxdepth) {
+  for (gpu::Material& m : t.materials)
+    if (m.type == gpu::MATERIAL_COATED_DIFFUSE || m.type == gpu::MATERIAL_COATED_CONDUCTOR) {
+      if (maxdepth > 0) m.aux0 = std::uint32_t(maxdepth);
+      if (nsamples > 0) m.aux1 = std::uint32_t(nsamples);
+    }
+  return {{"coated_nsamples", nsamples > 0 ? std::to_string(nsamples) : "scene"},
+          {"coated_maxdepth", maxdepth > 0 ? std::to_string(maxdepth) : "scene"}};
 }
 
 std::vector<std::pair<std::string, std::string>> apply_path_knobs(SceneTables& t, int max_depth,

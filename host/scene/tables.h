@@ -52,6 +52,17 @@ struct BuildTimes {
 SceneTables build_tables(const Scene& scene, BuildTimes* times = nullptr,
                          std::vector<std::string>* warnings = nullptr);
 
+/// \brief Light selection (docs/path-spec.md 6) by \p mode: "bvh" (pbrt-v4's BVHLightSampler
+/// split between infinite and bounded lights, power within the bounded ones; the default),
+/// "power" (pbrt-v4's PowerLightSampler) or "uniform"; rewrites light_cdf and every pmf.
+/// Returns the mode, for --stats.
+std::string apply_light_sampler(SceneTables& t, const std::string& mode);
+
+/// \brief Replaces the coated materials' "nsamples" and "maxdepth" (docs/materials-spec.md)
+/// where the argument is positive; returns the knob values for --stats.
+std::vector<std::pair<std::string, std::string>> apply_layered_knobs(SceneTables& t,
+                                                                     int nsamples, int maxdepth);
+
 /// \brief Names of the feature bits set in \p features, for --stats.
 std::vector<std::string> feature_names(std::uint32_t features);
 

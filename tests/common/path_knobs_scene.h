@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "../../shaders/shared/layout.h"
+#include "scene/tables.h"
 
 namespace basalt::test {
 
@@ -41,14 +41,21 @@ AttributeEnd
 )";
 }
 
-/// One setting of the path knobs (apply_path_knobs' arguments).
+/// One setting of the path knobs (apply_path_knobs' and apply_light_sampler's arguments).
 struct PathKnobSetting {
   const char* name;
   int max_depth;  // -1: the scene's
   std::uint32_t roulette_start;
   std::uint32_t mis;
   bool unbiased;  // converges to the default's image
+  const char* light_sampler = "bvh";
 };
+
+/// Applies setting \p k to built tables.
+inline void apply_setting(SceneTables& t, const PathKnobSetting& k) {
+  apply_path_knobs(t, k.max_depth, k.roulette_start, k.mis);
+  apply_light_sampler(t, k.light_sampler);
+}
 
 /// Every non-default value of every path knob.
 inline std::vector<PathKnobSetting> path_knob_settings() {
@@ -60,6 +67,8 @@ inline std::vector<PathKnobSetting> path_knob_settings() {
       {"mis-balance", -1, 1u, gpu::MIS_BALANCE, true},
       {"mis-bsdf", -1, 1u, gpu::MIS_BSDF_ONLY, true},
       {"mis-light", -1, 1u, gpu::MIS_LIGHT_ONLY, true},
+      {"lights-uniform", -1, 1u, gpu::MIS_POWER, true, "uniform"},
+      {"lights-power", -1, 1u, gpu::MIS_POWER, true, "power"},
   };
 }
 

@@ -1,4 +1,6 @@
-// The path knobs of docs/path-spec.md 7.1 (--maxdepth, --roulette, --mis) on the CPU reference:
+// The path knobs of docs/path-spec.md 7.1 (--maxdepth, --roulette, --mis, --light-sampler) on
+// the CPU reference, and the build knobs (--bvh-bins and --bvh-leaf: the image is identical;
+// --coated-nsamples and --coated-maxdepth: it changes):
 // each changes the image; the unbiased ones converge to the default's image (their means agree
 // within 4 standard errors of the paired pixel differences); the biased ones (maxdepth 1 and 2)
 // lose light, a floor the error cannot go below.
@@ -10,6 +12,7 @@
 
 #include "common/path_knobs_scene.h"
 #include "common/test_util.h"
+#include "scene/scene.h"
 #include "scene/tables.h"
 
 namespace basalt::test {
@@ -29,7 +32,7 @@ TEST(PathKnobs, EveryKnobChangesTheImage) {
   const std::vector<glm::vec3> ref = render(Side::Cpu, base, 4);
   for (const PathKnobSetting& k : path_knob_settings()) {
     SceneTables t = base;
-    apply_path_knobs(t, k.max_depth, k.roulette_start, k.mis);
+    apply_setting(t, k);
     const std::vector<glm::vec3> img = render(Side::Cpu, t, 4);
     ASSERT_TRUE(all_finite(img)) << k.name;
     std::size_t changed = 0;
@@ -51,7 +54,7 @@ TEST(PathKnobs, UnbiasedSettingsConvergeAndDepthLimitsAreAFloor) {
   const std::vector<glm::vec3> ref = render(Side::Cpu, base, spp);
   for (const PathKnobSetting& k : path_knob_settings()) {
     SceneTables t = base;
-    apply_path_knobs(t, k.max_depth, k.roulette_start, k.mis);
+    apply_setting(t, k);
     set_seed(t, 2);
     const std::vector<glm::vec3> img = render(Side::Cpu, t, spp);
     double d, se;
@@ -62,6 +65,38 @@ TEST(PathKnobs, UnbiasedSettingsConvergeAndDepthLimitsAreAFloor) {
       EXPECT_LT(std::fabs(d), 4.0 * se) << k.name << " should converge to the default";
     else
       EXPECT_LT(d, -4.0 * se) << k.name << " should lose the light of longer paths";
+  }
+}
+
+TEST(PathKnobs, BvhBuildQualityIsATimeOnlyKnob) {
+  // --bvh-bins and --bvh-leaf change the tree, never the closest hit: the image is identical.
+  const Scene scene = load_scene_from_string(path_knobs_scene(), "test.pbrt", ".");
+  const std::vector<glm::vec3> ref = render(Side::Cpu, build_tables(scene), 2);
+  for (auto [bins, leaf] : {std::pair{2, 8}, std::pair{4, 2}, std::pair{64, 16}}) {
+    Scene s = scene;
+    s.bvh_bins = bins;
+    s.bvh_max_leaf = leaf;
+    const SceneTables t = build_tables(s);
+    EXPECT_EQ(render(Side::Cpu, t, 2), ref) << "bins " << bins << " leaf " << leaf;
+  }
+}
+
+TEST(PathKnobs, CoatedSamplesAndDepthChangeTheCoatedImage) {
+  // --coated-nsamples and --coated-maxdepth replace the coated materials' parameters: the
+  // random walk inside the layers changes, so the image does.
+  const SceneTables base = tables_from_file(source_path("scenes/materials-coated.pbrt"), 32, 24);
+  const std::vector<glm::vec3> ref = render(Side::Cpu, base, 2);
+  for (auto [n, d] : {std::pair{4, 0}, std::pair{0, 1}}) {
+    SceneTables t = base;
+    const auto knobs = apply_layered_knobs(t, n, d);
+    ASSERT_EQ(knobs.size(), 2u);
+    const std::vector<glm::vec3> img = render(Side::Cpu, t, 2);
+    ASSERT_TRUE(all_finite(img));
+    std::size_t changed = 0;
+    for (std::size_t i = 0; i < img.size(); ++i) changed += img[i] != ref[i] ? 1u : 0u;
+    std::printf("[ knobs ] coated nsamples %d maxdepth %d changes %zu of %zu pixels\n", n, d,
+                changed, img.size());
+    EXPECT_GT(changed, img.size() / 20);
   }
 }
 

@@ -16,7 +16,7 @@ TEST(PathKnobsGpu, MatchesCpuUnderEveryKnob) {
   const SceneTables base = tables_from_string(path_knobs_scene());
   for (const PathKnobSetting& k : path_knob_settings()) {
     SceneTables t = base;
-    apply_path_knobs(t, k.max_depth, k.roulette_start, k.mis);
+    apply_setting(t, k);
     const auto cpu = render(Side::Cpu, t, 2);
     const auto gpu = render(Side::Gpu, t, 2);
     ASSERT_TRUE(all_finite(gpu)) << k.name;
