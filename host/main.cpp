@@ -39,7 +39,7 @@ struct Options {
               noise_precision = "split", bump_differences = "forward", bump_dndu = "on",
               bump_step = "footprint", shading_normal_rule = "geometric", roulette = "pbrt-v4",
               mis = "power", sampler = "scene", light_sampler = "scene",
-              pipeline = "specialised";
+              pipeline = "specialised", layered_mis = "basalt";
   int bvh_bins = 32, bvh_leaf = 8, coated_nsamples = 0, coated_maxdepth = 0;
   int max_depth = -1;  // -1: the scene's Integrator "maxdepth"
   int noise_octaves = 0;
@@ -126,7 +126,8 @@ int run(const Options& opt) {
                         : smp.x == basalt::gpu::SAMPLER_INDEPENDENT ? std::string()
                                                                     : std::string(" ") + kRand[smp.y]));
     st.quality.emplace_back("light_sampler", scene.integrator.light_sampler);
-    for (auto& k : basalt::apply_layered_knobs(tables, opt.coated_nsamples, opt.coated_maxdepth))
+    for (auto& k : basalt::apply_layered_knobs(tables, opt.coated_nsamples, opt.coated_maxdepth,
+                                                opt.layered_mis == "pbrt-v4"))
       st.quality.push_back(k);
     st.quality.emplace_back("bvh_bins", std::to_string(opt.bvh_bins));
     st.quality.emplace_back("bvh_leaf", std::to_string(opt.bvh_leaf));
@@ -300,6 +301,10 @@ int main(int argc, char** argv) {
   app.add_option("--coated-maxdepth", opt.coated_maxdepth,
                  "replace every coated material's \"maxdepth\" (default: the scene's)")
       ->check(CLI::Range(1, 1024));
+  app.add_option("--layered-mis", opt.layered_mis,
+                 "coated materials' MIS weights: basalt (default, unbiased) or pbrt-v4 "
+                 "(reproduces pbrt-v4's images; docs/materials-spec.md 2.3)")
+      ->check(CLI::IsMember({"basalt", "pbrt-v4"}));
   app.add_option("--stats", opt.stats, "write render statistics as JSON to this file");
   app.add_flag("-q,--quiet", opt.quiet, "no progress bar or summary");
   app.add_flag("--list-devices", list, "list Vulkan devices and exit");

@@ -109,6 +109,7 @@ void add_material_lobes(Bsdf& b, const gpu::Material& m, const SurfacePoint& sp,
     l.beckmann = beck;
     l.n0 = m.aux0;
     l.n1 = std::max(m.aux1, 1u);
+    l.pbrt_mis = (m.flags & gpu::MATFLAG_LAYERED_PBRT_MIS) != 0u;
     return l;
   };
   switch (m.type) {

@@ -35,6 +35,7 @@ struct Lobe {
   std::uint32_t fresnel = gpu::FRESNEL_ONE;  // MICROFACET_R / SPECULAR_R Fresnel
   bool beckmann = false;       // Beckmann instead of Trowbridge-Reitz (MATFLAG_BECKMANN)
   std::uint32_t n0 = 0, n1 = 0;  // layered maxdepth, nsamples; MEASURED table offset
+  bool pbrt_mis = false;         // layered: pbrt-v4's exit MIS weights (MATFLAG_LAYERED_PBRT_MIS)
   glm::uvec3 dims{0u};           // MEASURED: n theta_h, n theta_d, n phi_d
 };
 

@@ -86,6 +86,7 @@ struct Layered {
   float thickness = 0.01f, g = 0.0f;
   glm::vec3 albedo{0.0f};
   int max_depth = 10, n_samples = 1;
+  bool pbrt_mis = false;  // pbrt-v4's exit MIS weights in f (docs/materials-spec.md 2.3)
   std::uint32_t flags() const;
   glm::vec3 f(glm::vec3 wo, glm::vec3 wi, Mode mode, glm::uvec4 stream) const;
   BsdfSample sample(glm::vec3 wo, float uc, glm::vec2 u, Mode mode, glm::uvec4 stream) const;

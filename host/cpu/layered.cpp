@@ -201,7 +201,8 @@ glm::vec3 Layered<Bottom>::f(glm::vec3 wo, glm::vec3 wi, Mode mode, glm::uvec4 k
             if (nonzero(f_exit)) {
               // Density with which the NEE strategy (wis, sampled from wi) produces -w; pbrt-v4
               // uses PDF(-w, wi, mode), the density of wi given -w (see above f).
-              const float exit_pdf = exit.pdf(wi, -w, flip(mode), SAMPLE_T);
+              const float exit_pdf = pbrt_mis ? exit.pdf(-w, wi, mode, SAMPLE_T)
+                                              : exit.pdf(wi, -w, flip(mode), SAMPLE_T);
               const float wt2 = power(ps.pdf, exit_pdf);
               f += beta * Tr(zp - exit_z, ps.wi) * f_exit * wt2;
             }
@@ -242,7 +243,8 @@ glm::vec3 Layered<Bottom>::f(glm::vec3 wo, glm::vec3 wi, Mode mode, glm::uvec4 k
             float wt = 1.0f;
             if (!is_specular(non_exit.flags())) {
               // As above: the NEE strategy's density of -w, not pbrt-v4's PDF(-w, wi, mode).
-              const float exit_pdf = exit.pdf(wi, -w, flip(mode), SAMPLE_T);
+              const float exit_pdf = pbrt_mis ? exit.pdf(-w, wi, mode, SAMPLE_T)
+                                              : exit.pdf(wi, -w, flip(mode), SAMPLE_T);
               wt = power(bs.pdf, exit_pdf);
             }
             f += beta * Tr(thickness, bs.wi) * f_exit * wt;

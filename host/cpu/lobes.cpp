@@ -262,6 +262,7 @@ Layered<Diffuse> coated_diffuse(const Lobe& l) {
   b.albedo = l.c1;
   b.max_depth = int(l.n0);
   b.n_samples = int(l.n1);
+  b.pbrt_mis = l.pbrt_mis;
   return b;
 }
 
@@ -274,6 +275,7 @@ Layered<Conductor> coated_conductor(const Lobe& l) {
   b.albedo = l.c1;
   b.max_depth = int(l.n0);
   b.n_samples = int(l.n1);
+  b.pbrt_mis = l.pbrt_mis;
   return b;
 }
 

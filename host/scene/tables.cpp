@@ -932,14 +932,18 @@ std::string apply_light_sampler(SceneTables& t, const std::string& mode) {
 }
 
 std::vector<std::pair<std::string, std::string>> apply_layered_knobs(SceneTables& t,
-                                                                     int nsamples, int maxdepth) {
+                                                                     int nsamples, int maxdepth,
+                                                                     bool pbrt_mis) {
   for (gpu::Material& m : t.materials)
     if (m.type == gpu::MATERIAL_COATED_DIFFUSE || m.type == gpu::MATERIAL_COATED_CONDUCTOR) {
       if (maxdepth > 0) m.aux0 = std::uint32_t(maxdepth);
       if (nsamples > 0) m.aux1 = std::uint32_t(nsamples);
+      m.flags = pbrt_mis ? m.flags | gpu::MATFLAG_LAYERED_PBRT_MIS
+                         : m.flags & ~gpu::MATFLAG_LAYERED_PBRT_MIS;
     }
   return {{"coated_nsamples", nsamples > 0 ? std::to_string(nsamples) : "scene"},
-          {"coated_maxdepth", maxdepth > 0 ? std::to_string(maxdepth) : "scene"}};
+          {"coated_maxdepth", maxdepth > 0 ? std::to_string(maxdepth) : "scene"},
+          {"layered_mis", pbrt_mis ? "pbrt-v4" : "basalt"}};
 }
 
 std::vector<std::pair<std::string, std::string>> apply_path_knobs(SceneTables& t, int max_depth,

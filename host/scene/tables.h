@@ -59,9 +59,12 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times = nullptr,
 std::string apply_light_sampler(SceneTables& t, const std::string& mode);
 
 /// \brief Replaces the coated materials' "nsamples" and "maxdepth" (docs/materials-spec.md)
-/// where the argument is positive; returns the knob values for --stats.
+/// where the argument is positive, and picks their exit MIS weights in f: basalt's (default)
+/// or, with \p pbrt_mis, pbrt-v4's (materials-spec 2.3, deviation 1); returns the knob values
+/// for --stats.
 std::vector<std::pair<std::string, std::string>> apply_layered_knobs(SceneTables& t,
-                                                                     int nsamples, int maxdepth);
+                                                                     int nsamples, int maxdepth,
+                                                                     bool pbrt_mis = false);
 
 /// \brief Names of the feature bits set in \p features, for --stats.
 std::vector<std::string> feature_names(std::uint32_t features);

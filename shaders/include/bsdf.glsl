@@ -274,6 +274,7 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
         bool cd = type == MATERIAL_COATED_DIFFUSE;
         Lobe L = lobe_new(cd ? LOBE_LAYERED_DIFFUSE : LOBE_LAYERED_CONDUCTOR, scale, 0u, beck);
         L.aux = (materials[m].aux0 & 0xffffu) | (materials[m].aux1 << 16u);
+        if ((materials[m].flags & MATFLAG_LAYERED_PBRT_MIS) != 0u) L.bits |= LOBEBIT_PBRT_MIS;
         if (cd) {
           L.p0 = vec4(mf_alphas(slot_alpha(m, SLOT_CD_UROUGH, sp), slot_alpha(m, SLOT_CD_VROUGH, sp)),
                       slot_value(m, SLOT_CD_ETA, sp).x, slot_value(m, SLOT_CD_THICKNESS, sp).x);

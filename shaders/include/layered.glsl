@@ -26,6 +26,7 @@ struct Layers {
   float g;          // HG asymmetry
   int max_depth;
   int n_samples;
+  bool pbrt_mis;    // pbrt-v4's exit MIS weights in f (docs/materials-spec.md 2.3)
 };
 
 // Unpacks a LAYERED_* lobe.
@@ -33,7 +34,8 @@ Layers layers_of(Lobe L) {
   bool beck = (L.bits & LOBEBIT_BECKMANN) != 0u;
   return Layers(L.p0.z, MfDist(L.p0.x, L.p0.y, beck), L.tag == LOBE_LAYERED_CONDUCTOR,
                 L.p2.xyz, L.p3.xyz, MfDist(L.p2.w, L.p3.w, beck), max(L.p0.w, 1.17549435e-38),
-                L.p1.xyz, L.p1.w, int(L.aux & 0xffffu), int(L.aux >> 16u));
+                L.p1.xyz, L.p1.w, int(L.aux & 0xffffu), int(L.aux >> 16u),
+                (L.bits & LOBEBIT_PBRT_MIS) != 0u);
 }
 
 // The next n (1 to 3) elements of the walk's random stream (pbrt-v4's r(), called n times),
@@ -232,9 +234,11 @@ vec3 layered_f(Lobe L, vec3 wo, vec3 wi, uvec4 key) {
         if (e >= 2 && !exit_nee) break;
         if (e == 2 && !exit_mis) continue;
         vec3 ur = e == 1 ? layer_rn(key, j, 3u) : vec3(0.0);
-        BsdfSample t = layer_query(y, e >= 2 || (e == 1 && at_exit), e == 2 ? wi : -w,
-                                   e == 0 ? -wis.wi : (e == 2 ? -w : wi), ur.x, ur.yz, e == 1,
-                                   e != 2, e >= 2 ? SAMPLE_T : SAMPLE_R);
+        // e = 2 with --layered-mis pbrt-v4: pbrt-v4's PDF(-w, wi) in radiance mode instead.
+        bool nee_pdf = e == 2 && !y.pbrt_mis;
+        BsdfSample t = layer_query(y, e >= 2 || (e == 1 && at_exit), nee_pdf ? wi : -w,
+                                   e == 0 ? -wis.wi : (nee_pdf ? -w : wi), ur.x, ur.yz, e == 1,
+                                   !nee_pdf, e >= 2 ? SAMPLE_T : SAMPLE_R);
         if (e == 0) {
           float wt = 1.0;
           if (!top_spec) wt = layer_power(wis.pdf, t.pdf);

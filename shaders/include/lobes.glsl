@@ -45,10 +45,12 @@ const uint SAMPLE_R = BSDF_REFLECTION;
 const uint SAMPLE_T = BSDF_TRANSMISSION;
 const uint SAMPLE_ALL = BSDF_REFLECTION | BSDF_TRANSMISSION;
 
-// Lobe.bits: FRESNEL_* of MICROFACET_R / SPECULAR_R in bits 0-1, Beckmann in bit 2, the
+// Lobe.bits: FRESNEL_* of MICROFACET_R / SPECULAR_R in bits 0-1, Beckmann in bit 2, layered
+// pbrt-v4 MIS in bit 3, the
 // lobe's BSDF_* flags in bits 8-15.
 const uint LOBEBIT_FRESNEL_MASK = 3u;
 const uint LOBEBIT_BECKMANN = 4u;
+const uint LOBEBIT_PBRT_MIS = 8u;  // layered: pbrt-v4's exit MIS weights (MATFLAG_LAYERED_PBRT_MIS)
 const uint LOBEBIT_FLAGS_SHIFT = 8u;
 
 // One lobe: tag, bits, aux (layered: maxdepth | nsamples << 16; measured: table offset), rgb

@@ -153,6 +153,8 @@ BASALT_CONST uint MATFLAG_BECKMANN = 1u << 2;    // microfacet lobes use Beckman
 BASALT_CONST uint MATFLAG_USE_REFLECTANCE = 1u << 3;  // conductors: Fresnel from reflectance
 BASALT_CONST uint MATFLAG_BUMP = 1u << 4;       // displacement slot given (docs/bump-spec.md 2)
 BASALT_CONST uint MATFLAG_NORMALMAP = 1u << 5;  // normal map in SLOT_NORMALMAP (bump-spec 2)
+BASALT_CONST uint MATFLAG_LAYERED_PBRT_MIS = 1u << 7;  // coated: pbrt-v4's exit MIS weights in f
+                                                     // (--layered-mis; materials-spec 2.3)
 BASALT_CONST uint MATFLAG_VTURB = 1u << 6;      // Shirley's vector turbulence: value[SLOT_NORMALMAP]
                                                 // .y = k1, .z = k2, .w = octaves (bump-spec 9)
 

@@ -83,13 +83,15 @@ TEST(PathKnobs, BvhBuildQualityIsATimeOnlyKnob) {
 
 TEST(PathKnobs, CoatedSamplesAndDepthChangeTheCoatedImage) {
   // --coated-nsamples and --coated-maxdepth replace the coated materials' parameters: the
-  // random walk inside the layers changes, so the image does.
-  const SceneTables base = tables_from_file(source_path("scenes/materials-coated.pbrt"), 32, 24);
+  // random walk inside the layers changes, so the image does; --layered-mis pbrt-v4 changes
+  // the rough coats' f. (tests/refs/coated-rough.options checks that setting against pbrt-v4.)
+  const SceneTables base = tables_from_file(source_path("scenes/coated-rough.pbrt"), 32, 16);
   const std::vector<glm::vec3> ref = render(Side::Cpu, base, 2);
-  for (auto [n, d] : {std::pair{4, 0}, std::pair{0, 1}}) {
+  for (auto [n, d] : {std::pair{4, 0}, std::pair{0, 1}, std::pair{0, 0}}) {
     SceneTables t = base;
-    const auto knobs = apply_layered_knobs(t, n, d);
-    ASSERT_EQ(knobs.size(), 2u);
+    // (0, 0): --layered-mis pbrt-v4 alone (pbrt-v4's exit MIS weights in f).
+    const auto knobs = apply_layered_knobs(t, n, d, n == 0 && d == 0);
+    ASSERT_EQ(knobs.size(), 3u);
     const std::vector<glm::vec3> img = render(Side::Cpu, t, 2);
     ASSERT_TRUE(all_finite(img));
     std::size_t changed = 0;

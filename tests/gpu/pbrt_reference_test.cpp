@@ -59,14 +59,17 @@ std::vector<double> block_means(const std::vector<glm::vec3>& img, int w, int h,
 void check_against_pbrt(const std::string& name, Side side) {
   const Image ref = read_exr(source_path("tests/refs/" + name + ".exr"));
   SceneTables t = tables_from_file(source_path("scenes/" + name + ".pbrt"));
-  // tests/refs/<scene>.options: basalt command-line knobs the comparison renders with (only
-  // --shading-normal-rule pbrt-v4 so far; anything else is an error).
+  // tests/refs/<scene>.options: basalt command-line knobs the comparison renders with
+  // (--shading-normal-rule pbrt-v4 and --layered-mis pbrt-v4; anything else is an error).
   if (std::ifstream opt(source_path("tests/refs/" + name + ".options")); opt) {
     std::string key, value;
     while (opt >> key >> value) {
-      ASSERT_TRUE(key == "--shading-normal-rule" && value == "pbrt-v4")
-          << name << ".options: unknown knob " << key << " " << value;
-      apply_shading_rule(t, true);
+      if (key == "--shading-normal-rule" && value == "pbrt-v4")
+        apply_shading_rule(t, true);
+      else if (key == "--layered-mis" && value == "pbrt-v4")
+        apply_layered_knobs(t, 0, 0, true);
+      else
+        FAIL() << name << ".options: unknown knob " << key << " " << value;
     }
   }
   ASSERT_EQ(int(t.width()), ref.width) << "reference resolution differs from the scene's";
