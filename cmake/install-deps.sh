@@ -6,7 +6,8 @@ pkgs=(
   build-essential cmake pkg-config
   libvulkan-dev vulkan-tools mesa-vulkan-drivers vulkan-validationlayers
   glslang-tools libglm-dev libopenexr-dev libpng-dev libstb-dev
-  libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev
+  python3-matplotlib
 )
 missing=()
 for p in "${pkgs[@]}"; do

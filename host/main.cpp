@@ -17,6 +17,7 @@
 #include "scene/tables.h"
 #include "util/progress.h"
 #include "scene/textures.h"
+#include "study/study.h"
 #include "util/stats.h"
 #include "vk/context.h"
 #include "vk/gpu_renderer.h"
@@ -204,7 +205,13 @@ int run(const Options& opt) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // `basalt study SCENE.pbrt ...` is a command of its own (host/study/study.cpp); anything
+  // else renders as before (a scene file named "study" renders as ./study).
+  if (argc > 1 && std::string(argv[1]) == "study")
+    return basalt::study::study_main(argc - 1, argv + 1);
   CLI::App app{"basalt: physically based rendering of pbrt-v4 scenes in Vulkan compute"};
+  app.footer("basalt study SCENE.pbrt [options]: what accuracy costs in time, a sweep of spp and "
+             "the quality knobs (basalt study --help)");
   Options opt;
   bool list = false;
   app.add_option("scene", opt.scene, "pbrt-v4 scene file");

@@ -222,3 +222,70 @@ execute_process(COMMAND ${BASALT} --help RESULT_VARIABLE rc OUTPUT_VARIABLE out)
 if(NOT rc EQUAL 0 OR NOT out MATCHES "--spp" OR NOT out MATCHES "--mix")
   fail("--help: exit ${rc}")
 endif()
+
+# basalt study (issue 10): a small sweep of spp and every available knob on both devices,
+# within a time budget. The budget is the whole command's: the sweep skips what would
+# overrun, so the wall time stays under it; the charts need python3-matplotlib.
+set(knob_names spp maxdepth roulette mis mix texture-filter noise-octaves noise-precision
+    bump-differences bump-dndu sampler light-sampler pipeline bvh-bins bvh-leaf
+    coated-nsamples coated-maxdepth layered-mis)
+execute_process(COMMAND /usr/bin/python3 -c "import matplotlib" RESULT_VARIABLE py_rc
+                OUTPUT_QUIET ERROR_QUIET)
+if(NOT py_rc EQUAL 0)
+  fail("basalt study: /usr/bin/python3 cannot import matplotlib: install python3-matplotlib "
+       "(cmake/install-deps.sh)")
+endif()
+set(budget 50)
+string(TIMESTAMP t0 "%s" UTC)
+execute_process(COMMAND ${BASALT} study ${WORK}/good.pbrt --devices cpu,lavapipe --spp-max 4
+                        --seeds 2 --budget ${budget} --out ${WORK}/study
+                RESULT_VARIABLE rc ERROR_VARIABLE err OUTPUT_VARIABLE out)
+string(TIMESTAMP t1 "%s" UTC)
+math(EXPR wall "${t1} - ${t0}")
+if(NOT rc EQUAL 0)
+  fail("basalt study: exit ${rc}: ${err}")
+endif()
+if(err MATCHES "python3-matplotlib")
+  fail("basalt study: no charts, python3-matplotlib is missing: ${err}")
+endif()
+if(NOT wall LESS budget)
+  fail("basalt study: ${wall} s, over its budget of ${budget} s")
+endif()
+foreach(f study.json study.csv report.md chart-cpu.png chart-lavapipe.png chart-cpu-ssim.png
+          chart-lavapipe-ssim.png chart-spp.png)
+  if(NOT EXISTS ${WORK}/study/${f})
+    fail("basalt study: ${f} not written")
+  endif()
+endforeach()
+if(EXISTS ${WORK}/study/study.json AND EXISTS ${WORK}/study/report.md)
+  file(READ ${WORK}/study/study.json study_json)
+  file(READ ${WORK}/study/report.md report)
+  foreach(name ${knob_names})
+    if(NOT study_json MATCHES "\"name\": \"${name}\"")
+      fail("basalt study: knob ${name} missing from study.json")
+    endif()
+    if(NOT report MATCHES "## ${name} ")
+      fail("basalt study: knob ${name} missing from report.md")
+    endif()
+  endforeach()
+  string(JSON done GET "${study_json}" runs done)
+  string(JSON e0 GET "${study_json}" points 0 rel_mse_mean)
+  if(done LESS 10 OR NOT e0 GREATER 0)
+    fail("basalt study: ${done} runs done, first relMSE ${e0}")
+  endif()
+endif()
+# A knob that does not exist is a bad command line; a reference of the wrong size is bad input.
+execute_process(COMMAND ${BASALT} study ${WORK}/good.pbrt --knobs maxdepth,nonexistent
+                        --out ${WORK}/study-bad RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 2 OR NOT err MATCHES "unknown knob 'nonexistent'")
+  fail("basalt study --knobs nonexistent: exit ${rc} (expected 2): ${err}")
+endif()
+string(REPLACE "[ 32 ]" "[ 16 ]" small_text "${good_text}")
+file(WRITE ${WORK}/small.pbrt "${small_text}")
+execute_process(COMMAND ${BASALT} ${WORK}/small.pbrt --device cpu --spp 1 --quiet
+                        -o ${WORK}/small.exr RESULT_VARIABLE rc ERROR_VARIABLE err)
+execute_process(COMMAND ${BASALT} study ${WORK}/good.pbrt --reference ${WORK}/small.exr
+                        --out ${WORK}/study-bad RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 1 OR NOT err MATCHES "reference .*small\\.exr is 16x24, the scene renders 32x24")
+  fail("basalt study --reference of the wrong size: exit ${rc} (expected 1): ${err}")
+endif()
