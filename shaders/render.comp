@@ -11,6 +11,7 @@
 // the image (balanced). Slots of the padding past the image edge return.
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 
 #include "include/bindings.glsl"
 #include "include/integrator.glsl"

@@ -72,6 +72,13 @@ void sampler_tables(SceneTables& t, const Sampler& s) {
   g.sampler_opts = glm::uvec4(type < names.size() ? type : gpu::SAMPLER_INDEPENDENT, rand,
                          std::uint32_t(s.spp), 0u);
   g.sampler_params = glm::uvec4(0u);
+  // Specialisation: the render pipeline compiles the code of this sampler only (layout.h).
+  static const std::uint32_t kFeature2[] = {0u, gpu::FEATURE2_SAMPLER_STRATIFIED,
+                                            gpu::FEATURE2_SAMPLER_HALTON,
+                                            gpu::FEATURE2_SAMPLER_PADDED_SOBOL,
+                                            gpu::FEATURE2_SAMPLER_ZSOBOL};
+  t.features2 = (t.features2 & ~gpu::FEATURE2_SAMPLERS) | kFeature2[g.sampler_opts.x];
+  g.features.y = t.features2;
   const std::uint32_t w = t.width(), h = t.height();
   switch (type) {
     case gpu::SAMPLER_STRATIFIED:

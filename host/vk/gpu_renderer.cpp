@@ -152,6 +152,11 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
 GpuRenderer::~GpuRenderer() {
   ctx_.device.waitIdle();
   destroy_pipeline(render_);
+  if (probe_capacity_) {
+    destroy_pipeline(probe_);
+    ctx_.destroy_buffer(probe_in_);
+    ctx_.destroy_buffer(probe_out_);
+  }
   for (auto& b : tables_) ctx_.destroy_buffer(b);
 }
 
@@ -285,23 +290,34 @@ void GpuRenderer::clear() {
   rays_ = nonfinite_ = 0;
 }
 
+void GpuRenderer::set_globals(const gpu::Globals& globals) {
+  std::memcpy(tables_[BINDING_GLOBALS].mapped, &globals, sizeof(globals));
+}
+
 std::vector<gpu::ProbeOut> GpuRenderer::probe(const std::vector<gpu::ProbeIn>& queries) {
-  const auto usage = vk::BufferUsageFlagBits::eStorageBuffer;
-  Buffer in = ctx_.create_buffer(queries.size() * sizeof(gpu::ProbeIn), usage);
-  Buffer out = ctx_.create_buffer(queries.size() * sizeof(gpu::ProbeOut), usage);
-  if (!queries.empty()) std::memcpy(in.mapped, queries.data(), queries.size() * sizeof(gpu::ProbeIn));
-  std::vector<std::pair<std::uint32_t, Buffer*>> bindings;
-  for (std::uint32_t i = 0; i < tables_.size(); ++i) bindings.push_back({i, &tables_[i]});
-  bindings.push_back({BINDING_PROBE_IN, &in});
-  bindings.push_back({BINDING_PROBE_OUT, &out});
-  Pipeline p = make_pipeline(probe_spv, sizeof(probe_spv), 0xffffffffu, 0xffffffffu, bindings);
+  if (queries.size() > probe_capacity_ || probe_capacity_ == 0) {
+    if (probe_capacity_) {
+      destroy_pipeline(probe_);
+      ctx_.destroy_buffer(probe_in_);
+      ctx_.destroy_buffer(probe_out_);
+    }
+    const std::size_t cap = std::max<std::size_t>(queries.size(), 1);
+    const auto usage = vk::BufferUsageFlagBits::eStorageBuffer;
+    probe_in_ = ctx_.create_buffer(cap * sizeof(gpu::ProbeIn), usage);
+    probe_out_ = ctx_.create_buffer(cap * sizeof(gpu::ProbeOut), usage);
+    std::vector<std::pair<std::uint32_t, Buffer*>> bindings;
+    for (std::uint32_t i = 0; i < tables_.size(); ++i) bindings.push_back({i, &tables_[i]});
+    bindings.push_back({BINDING_PROBE_IN, &probe_in_});
+    bindings.push_back({BINDING_PROBE_OUT, &probe_out_});
+    probe_ = make_pipeline(probe_spv, sizeof(probe_spv), 0xffffffffu, 0xffffffffu, bindings);
+    probe_capacity_ = cap;
+  }
+  if (!queries.empty())
+    std::memcpy(probe_in_.mapped, queries.data(), queries.size() * sizeof(gpu::ProbeIn));
   const std::uint32_t n = std::uint32_t(queries.size());
-  dispatch(p, gpu::PassConstants{0, 1, 0, n, 1, n, 0, 0}, n);
+  dispatch(probe_, gpu::PassConstants{0, 1, 0, n, 1, n, 0, 0}, n);
   std::vector<gpu::ProbeOut> result(queries.size());
-  if (n) std::memcpy(result.data(), out.mapped, n * sizeof(gpu::ProbeOut));
-  destroy_pipeline(p);
-  ctx_.destroy_buffer(in);
-  ctx_.destroy_buffer(out);
+  if (n) std::memcpy(result.data(), probe_out_.mapped, n * sizeof(gpu::ProbeOut));
   return result;
 }
 

@@ -49,6 +49,10 @@ class GpuRenderer {
   std::uint64_t nonfinite_samples() const { return nonfinite_; }
   /// \brief Zeroes the accumulation buffer and the ray count.
   void clear();
+  /// \brief Replaces the uploaded Globals (for probes that vary a Globals-only setting, such
+  ///        as the sampler, without building new pipelines); the render pipeline keeps the
+  ///        feature bits it was built with.
+  void set_globals(const gpu::Globals& globals);
   /// \brief True if the lean render shader renders scenes with feature bits \p features
   ///        exactly as the full one does (no feature it lacks, i.e. no FEATURE_MAT_* other
   ///        than FEATURE_MAT_DIFFUSE and no bit it does not know).
@@ -81,6 +85,11 @@ class GpuRenderer {
   std::uint32_t stride_;  // tile shuffle multiplier, coprime with the tile count
   std::vector<Buffer> tables_;  // indexed by BINDING_*
   Pipeline render_{};
+  // The probe pipeline and its query buffers, built on the first probe() and rebuilt only
+  // when a call needs more room (lavapipe takes seconds to compile the probe shader).
+  Pipeline probe_{};
+  Buffer probe_in_{}, probe_out_{};
+  std::size_t probe_capacity_ = 0;
   std::uint64_t rays_ = 0, nonfinite_ = 0;
   double units_per_second_ = 0.0;  // measured pixel-samples per second
 };

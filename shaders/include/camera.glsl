@@ -4,6 +4,7 @@
 
 #include "math.glsl"
 #include "rng.glsl"
+#include "sampler.glsl"
 #include "sampling.glsl"
 
 // A camera ray and its differentials (the rays through the film point one pixel to the
@@ -32,10 +33,9 @@ float filter_sample_axis(float u, uint base, uint n, float r) {
   return -r + 2.0 * r * (float(lo) + du) / float(n);
 }
 
-// Filter offset of the sample within its pixel (box or gaussian; weight 1 in both cases).
-vec2 filter_offset(uint px, uint py, uint s) {
-  float ux = rng(px, py, s, DIM_FILTER_X);
-  float uy = rng(px, py, s, DIM_FILTER_Y);
+// Filter offset of the sample within its pixel for the filter dimensions' values (ux, uy)
+// (box or gaussian; weight 1 in both cases).
+vec2 filter_offset(float ux, float uy) {
   vec2 r = globals.filter_radius.xy;
   if ((FEATURES & FEATURE_FILTER_GAUSSIAN) != 0u && globals.counts.z == FILTER_GAUSSIAN) {
     uint n = globals.counts.w;
@@ -69,12 +69,11 @@ void camera_ray_through(vec2 p_film, vec2 p_lens, out vec3 o, out vec3 d) {
 
 // Camera ray of sample s of pixel (px, py) (docs/path-spec.md section 2).
 CameraRay camera_ray(uint px, uint py, uint s) {
-  vec2 p_film = vec2(float(px) + 0.5, float(py) + 0.5) + filter_offset(px, py, s);
+  bool thin_lens = (FEATURES & FEATURE_THIN_LENS) != 0u && globals.lens.y > 0.0;
+  vec4 u = camera_samples(px, py, s, thin_lens ? 4u : 2u);  // filter, lens
+  vec2 p_film = vec2(float(px) + 0.5, float(py) + 0.5) + filter_offset(u.x, u.y);
   vec2 p_lens = vec2(0.0);
-  if ((FEATURES & FEATURE_THIN_LENS) != 0u && globals.lens.y > 0.0) {
-    p_lens = globals.lens.y *
-             concentric_disk(vec2(rng(px, py, s, DIM_LENS_X), rng(px, py, s, DIM_LENS_Y)));
-  }
+  if (thin_lens) p_lens = globals.lens.y * concentric_disk(u.zw);
   CameraRay cr;
   camera_ray_through(p_film, p_lens, cr.o, cr.d);
   camera_ray_through(p_film + vec2(1.0, 0.0), p_lens, cr.rx_o, cr.rx_d);

@@ -5,6 +5,7 @@
 
 #include "math.glsl"
 #include "rng.glsl"
+#include "sampler.glsl"
 #include "sampling.glsl"
 #include "intersect.glsl"
 #include "surface.glsl"
@@ -140,19 +141,22 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
     bool nee = (FEATURES & FEATURE_ANY_LIGHT) != 0u && num_lights > 0u &&
                (bsdf_flags(bsdf) & (BSDF_DIFFUSE | BSDF_GLOSSY)) != 0u &&
                globals.render_opts.y != MIS_BSDF_ONLY;
+    BounceSamples us = bounce_samples(px, py, s, dim);
     LightSample ls;
     float pmf = 0.0;
     vec3 wi_l = vec3(0.0), f_nee = vec3(0.0);
     if (nee) {
-      uint li = light_select(rng(px, py, s, dim + DIM_LIGHT_SELECT), num_lights);
+      uint li = light_select(bounce_sample(us, px, py, s, dim, DIM_LIGHT_SELECT), num_lights);
       pmf = lights[li].pmf;
-      vec2 ul = vec2(rng(px, py, s, dim + DIM_LIGHT_U0), rng(px, py, s, dim + DIM_LIGHT_U1));
+      vec2 ul = vec2(bounce_sample(us, px, py, s, dim, DIM_LIGHT_U0),
+                     bounce_sample(us, px, py, s, dim, DIM_LIGHT_U1));
       ls = light_sample(li, sp.p, sp.ng, sp.m, ul);
       nee = ls.pdf > 0.0 && pmf > 0.0 && any_positive(ls.Li);
       if (nee) wi_l = to_local(sp, ls.wi);
     }
-    vec3 ub = vec3(rng(px, py, s, dim + DIM_BSDF_LOBE), rng(px, py, s, dim + DIM_BSDF_U0),
-                   rng(px, py, s, dim + DIM_BSDF_U1));
+    vec3 ub = vec3(bounce_sample(us, px, py, s, dim, DIM_BSDF_LOBE),
+                   bounce_sample(us, px, py, s, dim, DIM_BSDF_U0),
+                   bounce_sample(us, px, py, s, dim, DIM_BSDF_U1));
     BsdfSample bs = no_sample();
     [[dont_unroll]] for (uint step = nee ? 0u : 2u; step < 4u; ++step) {
       uint op = step == 2u ? QUERY_SAMPLE : (step == 0u ? QUERY_F : QUERY_PDF);
@@ -209,7 +213,7 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
     uint rr = globals.render_opts.x;
     if (bmax < 1.0 && rr != ROULETTE_OFF && depth > (rr == 0u ? 1u : rr - 1u)) {
       float q = max(0.0, 1.0 - bmax);
-      if (rng(px, py, s, dim + DIM_ROULETTE) < q) break;
+      if (bounce_sample(us, px, py, s, dim, DIM_ROULETTE) < q) break;
       beta /= 1.0 - q;
     }
   }

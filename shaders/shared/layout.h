@@ -110,7 +110,16 @@ BASALT_CONST uint FEATURE2_ENV_PORTAL = 1u << 6;       // an environment map see
 BASALT_CONST uint FEATURE2_BUMP = 1u << 7;             // a bump-mapped material (bump-spec 4)
 BASALT_CONST uint FEATURE2_NORMALMAP = 1u << 8;        // a normal-mapped material (bump-spec 5)
 BASALT_CONST uint FEATURE2_VTURB = 1u << 9;            // vector-turbulence normals (bump-spec 9)
-BASALT_CONST uint FEATURE2_COUNT = 10u;
+// The scene's sampler (docs/sampler-spec.md), one bit per sampler but independent, set with
+// Globals.sampler_opts (sampler_tables): lavapipe runs the code of both sides of a branch on a
+// uniform, so the independent sampler compiles none of the others. Without its bit a sampler
+// renders as independent.
+BASALT_CONST uint FEATURE2_SAMPLER_STRATIFIED = 1u << 10;
+BASALT_CONST uint FEATURE2_SAMPLER_HALTON = 1u << 11;
+BASALT_CONST uint FEATURE2_SAMPLER_PADDED_SOBOL = 1u << 12;
+BASALT_CONST uint FEATURE2_SAMPLER_ZSOBOL = 1u << 13;
+BASALT_CONST uint FEATURE2_SAMPLERS = 0xfu << 10;      // all four
+BASALT_CONST uint FEATURE2_COUNT = 14u;
 
 // ---- primitive references ------------------------------------------------------------
 // A BVH leaf covers prim_refs[a .. a+b). A ref is a triangle index, or a sphere index

@@ -4,6 +4,7 @@
 // number of entries is pc.pixel_count. Compiled with FEATURES all ones (the default).
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 
 #include "include/bindings.glsl"
 #include "include/integrator.glsl"
@@ -79,6 +80,9 @@ void main() {
     }
     case PROBE_RNG:
       r.f0.x = rng(q.key.y, q.key.z, q.key.w, floatBitsToUint(q.extra.x));
+      break;
+    case PROBE_SAMPLER:
+      r.f0.x = sampler_get(q.key.y, q.key.z, q.key.w, floatBitsToUint(q.extra.x));
       break;
     case PROBE_CAMERA: {
       CameraRay cr = camera_ray(q.key.y, q.key.z, q.key.w);
