@@ -175,7 +175,7 @@ if(NOT rc EQUAL 2 OR EXISTS ${WORK}/knobs-bad.exr)
 endif()
 
 # Bump and displacement knobs (docs/bump-spec.md 4.5): in force in --stats; the edge scale
-# changes the displaced mesh's triangle count; bad values are a bad command line.
+# changes the displaced mesh's triangle count.
 execute_process(COMMAND ${BASALT} ${SOURCE_DIR}/scenes/displacement.pbrt --device cpu
                 --quiet --spp 1 --bump-differences central --bump-dndu off --bump-step 0.001
                 --shading-normal-rule pbrt-v4 --maxdepth 3 --roulette off --mis balance
@@ -197,12 +197,39 @@ string(JSON tris2 GET "${edge}" triangles)
 if(NOT rc EQUAL 0 OR NOT tris2 GREATER tris1 OR NOT edge MATCHES "\"displacement_edge_scale\": \"0.5")
   fail("--displacement-edge-scale 0.5: exit ${rc}, ${tris2} triangles (default ${tris1}): ${err}")
 endif()
+
+# Sampler, light-sampler, layered and time-only knobs (issue 10): in force in --stats.
+execute_process(COMMAND ${BASALT} ${SOURCE_DIR}/scenes/coated-rough.pbrt --device cpu --quiet
+                --spp 1 --sampler halton --light-sampler uniform --layered-mis pbrt-v4
+                --coated-nsamples 2 --coated-maxdepth 4 --bvh-bins 8 --bvh-leaf 4
+                --pipeline all --stats ${WORK}/knobs.json -o ${WORK}/knobs.exr
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+file(READ ${WORK}/knobs.json knobs)
+if(NOT rc EQUAL 0 OR NOT knobs MATCHES "\"sampler\": \"halton permutedigits\""
+   OR NOT knobs MATCHES "\"light_sampler\": \"uniform\""
+   OR NOT knobs MATCHES "\"layered_mis\": \"pbrt-v4\""
+   OR NOT knobs MATCHES "\"coated_nsamples\": \"2\"" OR NOT knobs MATCHES "\"coated_maxdepth\": \"4\""
+   OR NOT knobs MATCHES "\"bvh_bins\": \"8\"" OR NOT knobs MATCHES "\"bvh_leaf\": \"4\""
+   OR NOT knobs MATCHES "\"pipeline\": \"all\"")
+  fail("sampler and table knobs: exit ${rc}: ${err} ${knobs}")
+endif()
+# zsobol takes a power-of-two sample count, as pbrt-v4: 6 becomes 4, with a warning.
+execute_process(COMMAND ${BASALT} ${WORK}/good.pbrt --device cpu --quiet --spp 6 --sampler zsobol
+                --stats ${WORK}/zsobol.json -o ${WORK}/zsobol.exr RESULT_VARIABLE rc ERROR_VARIABLE err)
+file(READ ${WORK}/zsobol.json zs)
+if(NOT rc EQUAL 0 OR NOT zs MATCHES "\"spp\": 4" OR NOT err MATCHES "power-of-two")
+  fail("--sampler zsobol --spp 6: exit ${rc}: ${err} ${zs}")
+endif()
+# Bad values of every quality knob above are a bad command line (exit 2), nothing written.
 foreach(bad "--bump-step;0" "--bump-step;-1" "--bump-step;fine" "--bump-differences;backward"
             "--bump-dndu;maybe" "--displacement-edge-scale;0" "--shading-normal-rule;pbrt-v3"
-            "--maxdepth;-1" "--roulette;sometimes" "--roulette;-2" "--mis;mixed")
-  execute_process(COMMAND ${BASALT} ${WORK}/good.pbrt --device cpu ${bad} -o ${WORK}/bump-bad.exr
+            "--maxdepth;-1" "--roulette;sometimes" "--roulette;-2" "--mis;mixed"
+            "--sampler;sobolev" "--light-sampler;random" "--layered-mis;pbrt-v3"
+            "--pipeline;some" "--bvh-bins;1" "--bvh-bins;65" "--bvh-leaf;1" "--bvh-leaf;17"
+            "--coated-nsamples;0" "--coated-maxdepth;-3")
+  execute_process(COMMAND ${BASALT} ${WORK}/good.pbrt --device cpu ${bad} -o ${WORK}/knob-bad.exr
                   RESULT_VARIABLE rc ERROR_VARIABLE err)
-  if(NOT rc EQUAL 2 OR EXISTS ${WORK}/bump-bad.exr)
+  if(NOT rc EQUAL 2 OR EXISTS ${WORK}/knob-bad.exr)
     fail("${bad}: exit ${rc} (expected 2): ${err}")
   endif()
 endforeach()

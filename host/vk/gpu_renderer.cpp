@@ -65,7 +65,7 @@ bool GpuRenderer::lean_suffices(std::uint32_t features) {
 }
 
 GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t features,
-                         ShaderVariant which)
+                         ShaderVariant which, bool render_pipeline)
     : ctx_(ctx), width_(t.width()), height_(t.height()) {
   if (which == ShaderVariant::lean && !lean_suffices(features))
     throw std::invalid_argument("the lean render shader cannot render feature bits " +
@@ -135,6 +135,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   }
   seconds_upload = since(t0);
 
+  if (!render_pipeline) return;  // probes only: their pipeline is built by probe()
   t0 = Clock::now();
   std::vector<std::pair<std::uint32_t, Buffer*>> bindings;
   for (std::uint32_t i = 0; i < tables_.size(); ++i) bindings.push_back({i, &tables_[i]});
@@ -244,6 +245,8 @@ void GpuRenderer::dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint3
 
 void GpuRenderer::render(std::uint32_t sample_start, std::uint32_t count,
                          const std::function<void(double)>& progress, double seconds_per_pass) {
+  if (!render_.pipeline)
+    throw std::logic_error("GpuRenderer::render: built without a render pipeline (probes only)");
   // Work is counted in invocation slots (pixels, padded to whole 8x8 tiles) times samples.
   const std::uint32_t total = slots_;
   const double work = double(total) * count;

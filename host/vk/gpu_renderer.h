@@ -28,8 +28,9 @@ class GpuRenderer {
   /// \param variant the render shader build (see ShaderVariant); automatic by default.
   /// \throws std::runtime_error if a table exceeds the device's maxStorageBufferRange.
   /// \throws std::invalid_argument if \p variant is lean and lean_suffices(features) is false.
+  /// \param render_pipeline false: upload only, for probe() (render() then throws).
   GpuRenderer(Context& ctx, const SceneTables& tables, std::uint32_t features,
-              ShaderVariant variant = ShaderVariant::automatic);
+              ShaderVariant variant = ShaderVariant::automatic, bool render_pipeline = true);
   GpuRenderer(Context& ctx, const SceneTables& tables)
       : GpuRenderer(ctx, tables, tables.features) {}
   ~GpuRenderer();

@@ -105,7 +105,9 @@ std::vector<gpu::ProbeOut> probe(Side side, const SceneTables& tables,
   if (side == Side::Cpu) return cpu::probe(tables, queries);
   auto& ctx = gpu_context();
   const std::size_t before = ctx.validation_errors();
-  vkx::GpuRenderer gpu(ctx, tables);
+  // Upload only: the probe builds its own pipeline (lavapipe compiles a render pipeline too
+  // slowly to build one that is never used).
+  vkx::GpuRenderer gpu(ctx, tables, tables.features, vkx::ShaderVariant::automatic, false);
   auto out = gpu.probe(queries);
   EXPECT_EQ(ctx.validation_errors(), before) << "Vulkan validation errors";
   return out;

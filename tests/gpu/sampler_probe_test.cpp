@@ -24,7 +24,8 @@ TEST(SamplerProbe, GpuMatchesCpuBitForBit) {
   // Globals, where the whole sampler configuration lives (the prime table is the same).
   auto& ctx = gpu_context();
   const std::size_t validation_before = ctx.validation_errors();
-  vkx::GpuRenderer renderer(ctx, with_sampler(base, {"halton", ""}, 24));
+  const SceneTables first = with_sampler(base, {"halton", ""}, 24);
+  vkx::GpuRenderer renderer(ctx, first, first.features, vkx::ShaderVariant::automatic, false);
   for (const SamplerCase& c : sampler_cases()) {
     // zsobol rounds its count to a power of two; the others also take 24 (not a power of 2).
     const int spp = std::string(c.type) == "zsobol" ? 64 : 24;
