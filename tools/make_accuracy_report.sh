@@ -6,6 +6,7 @@
 #   BUILD    build directory (default ./build; basalt is built there first)
 #   PBRT     path to a pbrt-v4 binary: adds the equal-error comparison with pbrt-v4 at 16 spp
 #            (its image and wall time) to the Cornell box report
+#   REPLOT=1 no new measurements: redraw the charts and reports from BUILD/accuracy/*/study.json
 # Usage: tools/make_accuracy_report.sh [SCENE...]   (default: cornell-box coated-rough bump)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -18,7 +19,9 @@ for scene in "${scenes[@]}"; do
   work=$build/accuracy/$scene
   out=$root/docs/accuracy/$scene
   extra=()
-  if [ -n "${PBRT:-}" ] && [ "$scene" = cornell-box ]; then
+  if [ -n "${REPLOT:-}" ]; then
+    /usr/bin/python3 "$root/tools/study_report.py" "$work/study.json"
+  elif [ -n "${PBRT:-}" ] && [ "$scene" = cornell-box ]; then
     # pbrt-v4's own 16-spp render and its wall time, for the equal-error comparison.
     mkdir -p "$work"
     start=$(date +%s.%N)
@@ -28,19 +31,21 @@ for scene in "${scenes[@]}"; do
     extra=(--compare "$work/pbrt-v4-16spp.exr" --compare-time "$(echo "$end - $start" | bc)"
            --compare-name "pbrt-v4 (16 spp, $(nproc) threads)")
   fi
-  echo "basalt study $scene (budget $budget s)" >&2
-  "$build/basalt" study "$root/scenes/$scene.pbrt" --budget "$budget" --spp-max 64 \
-      --out "$work" "${extra[@]}"
+  if [ -z "${REPLOT:-}" ]; then
+    echo "basalt study $scene (budget $budget s)" >&2
+    "$build/basalt" study "$root/scenes/$scene.pbrt" --budget "$budget" --spp-max 64 \
+        --out "$work" "${extra[@]}"
+  fi
   rm -rf "$out"
   mkdir -p "$out"
   cp "$work"/report.md "$work"/study.json "$work"/study.csv "$work"/chart-*.png "$out"/
+  # Paths relative to the repository, not to this machine's checkout.
+  sed -i "s|$root/||g; s|$build/|build/|g" "$out"/report.md "$out"/study.json "$out"/study.csv
 done
 # docs/accuracy.md: an introduction, then each scene's report with its links rebased.
 /usr/bin/python3 - "$root" "${scenes[@]}" <<'PY'
-import re, sys, os, subprocess
+import re, sys, os
 root, scenes = sys.argv[1], sys.argv[2:]
-commit = subprocess.run(["git", "-C", root, "rev-parse", "--short", "HEAD"],
-                        capture_output=True, text=True).stdout.strip() or "unknown"
 parts = ["""# What accuracy costs in time
 
 Every quality knob of basalt measured as error against time, on lavapipe and on the CPU
@@ -49,13 +54,14 @@ reference, by `basalt study` (README, "Command line"). Regenerate this page and
 
     tools/make_accuracy_report.sh            # PBRT=/path/to/pbrt adds the pbrt-v4 comparison
 
-Commit measured: %s. Each scene's section is its `report.md`; `docs/accuracy/<scene>/`
+Each scene's section is its `report.md`, whose first lines give the machine and the basalt
+commit measured; `docs/accuracy/<scene>/`
 also holds the full table (`study.json`, `study.csv`). Error is relMSE (pbrt-v4's MRSE) and
 1 - SSIM against a high-spp reference rendered by basalt with the default knobs; the knobs'
 images and the reference come from the same renderer, so a biased setting shows as a floor.
 Points a scene's budget did not reach are listed as skipped in its table.
 
-""" % commit]
+"""]
 for s in scenes:
     text = open(os.path.join(root, "docs", "accuracy", s, "report.md"), encoding="utf-8").read()
     text = re.sub(r"\]\((?!http)([^)]+)\)", lambda m: "](accuracy/%s/%s)" % (s, m.group(1)), text)

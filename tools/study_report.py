@@ -312,7 +312,8 @@ def draw_charts(study, outdir, plt, ticker):
                          "better)" % (study["scene_name"], device, label,
                                       ",".join(str(s) for s in study["options"]["spp"]),
                                       study["options"]["seeds"]), fontsize=10)
-            fig.tight_layout()
+            # Room for the title above the top row (tight_layout ignores suptitle).
+            fig.tight_layout(rect=(0, 0, 1, 1 - 0.45 / (3.6 * nrow)))
             name = "chart-%s%s.png" % (device, tag)
             fig.savefig(os.path.join(outdir, name), dpi=110)
             plt.close(fig)
