@@ -15,6 +15,7 @@
 #include "scene/samplers.h"
 #include "scene/scene.h"
 #include "scene/tables.h"
+#include "util/cli_options.h"
 #include "util/progress.h"
 #include "scene/textures.h"
 #include "study/study.h"
@@ -118,14 +119,15 @@ int run(const Options& opt) {
                                                    : basalt::gpu::MIS_POWER;
     for (auto& k : basalt::apply_path_knobs(tables, opt.max_depth, start, mis))
       st.quality.push_back(k);
+    // The sampler and its randomisation (stratified: its jitter), e.g. "halton permutedigits".
     static const char* kRand[] = {"none", "permutedigits", "fastowen", "owen"};
     const glm::uvec4 smp = tables.globals.sampler_opts;
-    st.quality.emplace_back(
-        "sampler", scene.sampler.type +
-                       (smp.x == basalt::gpu::SAMPLER_STRATIFIED
-                            ? std::string(smp.y ? " jitter" : " no jitter")
-                        : smp.x == basalt::gpu::SAMPLER_INDEPENDENT ? std::string()
-                                                                    : std::string(" ") + kRand[smp.y]));
+    std::string sampler = scene.sampler.type;
+    if (smp.x == basalt::gpu::SAMPLER_STRATIFIED)
+      sampler += smp.y ? " jitter" : " no jitter";
+    else if (smp.x != basalt::gpu::SAMPLER_INDEPENDENT)
+      sampler += std::string(" ") + kRand[smp.y];
+    st.quality.emplace_back("sampler", sampler);
     st.quality.emplace_back("light_sampler", scene.integrator.light_sampler);
     for (auto& k : basalt::apply_layered_knobs(tables, opt.coated_nsamples, opt.coated_maxdepth,
                                                 opt.layered_mis == "pbrt-v4"))
@@ -225,27 +227,6 @@ int main(int argc, char** argv) {
   app.add_option("--device", opt.device,
                  "auto (a GPU if present, else lavapipe), lavapipe, cpu (the CPU reference), "
                  "or part of a Vulkan device name");
-  app.add_option("--mix", opt.mix,
-                 "mix materials: auto (pbrt-v4 \"materials\" syntax stochastic, pbrt-v3 "
-                 "\"namedmaterial1/2\" syntax weighted), stochastic or weighted (forces one)")
-      ->check(CLI::IsMember({"auto", "stochastic", "weighted"}));
-  app.add_option("--texture-filter", opt.texture_filter,
-                 "override every image map's filter: point, bilinear, trilinear or ewa "
-                 "(default: each texture's own)")
-      ->check(CLI::IsMember({"scene", "point", "bilinear", "trilinear", "ewa"}));
-  app.add_option("--noise-octaves", opt.noise_octaves,
-                 "cap the octaves of fbm, wrinkled, windy and marble (0: no cap)")
-      ->check(CLI::Range(0, 64));
-  app.add_option("--noise-precision", opt.noise_precision,
-                 "noise lookups: split (exact lattice position at any scale, the default) or fp32 "
-                 "(pbrt-v4's arithmetic)")
-      ->check(CLI::IsMember({"split", "fp32"}));
-  app.add_option("--bump-differences", opt.bump_differences,
-                 "bump mapping's finite differences: forward (pbrt-v4, the default) or central")
-      ->check(CLI::IsMember({"forward", "central"}));
-  app.add_option("--bump-dndu", opt.bump_dndu,
-                 "the d dn/du term of the bump chain rule: on (pbrt-v4, the default) or off")
-      ->check(CLI::IsMember({"on", "off"}));
   app.add_option("--bump-step", opt.bump_step,
                  "bump difference step: footprint (pbrt-v4's, from the ray differentials; the "
                  "default) or a fixed step in (u, v) units, e.g. 1e-3")
@@ -259,9 +240,6 @@ int main(int argc, char** argv) {
         }
         return "must be 'footprint' or a positive number, got '" + v + "'";
       });
-  app.add_option("--maxdepth", opt.max_depth,
-                 "longest path in bounces (default: the scene's Integrator \"maxdepth\")")
-      ->check(CLI::Range(0, 100000));
   app.add_option("--roulette", opt.roulette,
                  "Russian roulette: pbrt-v4 (the default, = 1), off, or N: roulette may end a path "
                  "once it has bounced more than N times")
@@ -271,47 +249,84 @@ int main(int argc, char** argv) {
           return {};
         return "must be pbrt-v4, off or a bounce count, got '" + v + "'";
       });
-  app.add_option("--mis", opt.mis,
-                 "how light and BSDF sampling combine: power (pbrt-v4's power heuristic, the "
-                 "default), balance, bsdf (BSDF sampling only) or light (light sampling only)")
-      ->check(CLI::IsMember({"power", "balance", "bsdf", "light"}));
-  app.add_option("--shading-normal-rule", opt.shading_normal_rule,
-                 "what decides reflection or transmission where shading and geometric normals "
-                 "disagree: geometric (basalt's default: no light leaks, no black spots) or "
-                 "pbrt-v4 (the shading frame alone, as pbrt-v4: black spots where a bump tilts "
-                 "the normal away from the light)")
-      ->check(CLI::IsMember({"geometric", "pbrt-v4"}));
   app.add_option("--displacement-edge-scale", opt.displacement_edge_scale,
                  "scale every displaced plymesh's \"edgelength\" (pbrt-v4's option of the same "
                  "name; default: the scene's Option \"displacementedgescale\", else 1)")
       ->check(CLI::PositiveNumber);
-  app.add_option("--sampler", opt.sampler,
-                 "sampler instead of the scene's (docs/sampler-spec.md): independent, "
-                 "stratified, halton, paddedsobol or zsobol")
-      ->check(CLI::IsMember({"scene", "independent", "stratified", "halton", "paddedsobol",
-                             "zsobol"}));
-  app.add_option("--light-sampler", opt.light_sampler,
-                 "light selection instead of the scene's Integrator \"lightsampler\": bvh "
-                 "(default), power or uniform")
-      ->check(CLI::IsMember({"scene", "bvh", "power", "uniform"}));
-  app.add_option("--pipeline", opt.pipeline,
-                 "GPU pipeline: specialised to the scene's features (default) or all (every "
-                 "feature compiled in; same image, for timing)")
-      ->check(CLI::IsMember({"specialised", "all"}));
-  app.add_option("--bvh-bins", opt.bvh_bins, "SAH bins per axis of the BVH build (default 32)")
-      ->check(CLI::Range(2, 64));
-  app.add_option("--bvh-leaf", opt.bvh_leaf, "largest BVH leaf (default 8)")
-      ->check(CLI::Range(2, 16));
-  app.add_option("--coated-nsamples", opt.coated_nsamples,
-                 "replace every coated material's \"nsamples\" (default: the scene's)")
-      ->check(CLI::Range(1, 1024));
-  app.add_option("--coated-maxdepth", opt.coated_maxdepth,
-                 "replace every coated material's \"maxdepth\" (default: the scene's)")
-      ->check(CLI::Range(1, 1024));
-  app.add_option("--layered-mis", opt.layered_mis,
-                 "coated materials' MIS weights: basalt (default, unbiased) or pbrt-v4 "
-                 "(reproduces pbrt-v4's images; docs/materials-spec.md 2.3)")
-      ->check(CLI::IsMember({"basalt", "pbrt-v4"}));
+  // Quality knobs with a fixed set of values, and integer knobs within a range: a value outside
+  // them is a bad command line (exit 2).
+  struct Choice {
+    const char* name;
+    std::string* var;
+    const char* help;
+    std::vector<std::string> values;
+  };
+  const Choice choices[] = {
+      {"--mix", &opt.mix,
+       "mix materials: auto (pbrt-v4 \"materials\" syntax stochastic, pbrt-v3 \"namedmaterial1/2\" "
+       "syntax weighted), stochastic or weighted (forces one)",
+       {"auto", "stochastic", "weighted"}},
+      {"--texture-filter", &opt.texture_filter,
+       "override every image map's filter: point, bilinear, trilinear or ewa (default: each "
+       "texture's own)",
+       {"scene", "point", "bilinear", "trilinear", "ewa"}},
+      {"--noise-precision", &opt.noise_precision,
+       "noise lookups: split (exact lattice position at any scale, the default) or fp32 (pbrt-v4's "
+       "arithmetic)",
+       {"split", "fp32"}},
+      {"--bump-differences", &opt.bump_differences,
+       "bump mapping's finite differences: forward (pbrt-v4, the default) or central",
+       {"forward", "central"}},
+      {"--bump-dndu", &opt.bump_dndu,
+       "the d dn/du term of the bump chain rule: on (pbrt-v4, the default) or off",
+       {"on", "off"}},
+      {"--mis", &opt.mis,
+       "how light and BSDF sampling combine: power (pbrt-v4's power heuristic, the default), "
+       "balance, bsdf (BSDF sampling only) or light (light sampling only)",
+       {"power", "balance", "bsdf", "light"}},
+      {"--shading-normal-rule", &opt.shading_normal_rule,
+       "what decides reflection or transmission where shading and geometric normals disagree: "
+       "geometric (basalt's default: no light leaks, no black spots) or pbrt-v4 (the shading frame "
+       "alone, as pbrt-v4: black spots where a bump tilts the normal away from the light)",
+       {"geometric", "pbrt-v4"}},
+      {"--sampler", &opt.sampler,
+       "sampler instead of the scene's (docs/sampler-spec.md): independent, stratified, halton, "
+       "paddedsobol or zsobol",
+       {"scene", "independent", "stratified", "halton", "paddedsobol", "zsobol"}},
+      {"--light-sampler", &opt.light_sampler,
+       "light selection instead of the scene's Integrator \"lightsampler\": bvh (default), power "
+       "or uniform",
+       {"scene", "bvh", "power", "uniform"}},
+      {"--pipeline", &opt.pipeline,
+       "GPU pipeline: specialised to the scene's features (default) or all (every feature compiled "
+       "in; same image, for timing)",
+       {"specialised", "all"}},
+      {"--layered-mis", &opt.layered_mis,
+       "coated materials' MIS weights: basalt (default, unbiased) or pbrt-v4 (reproduces pbrt-v4's "
+       "images; docs/materials-spec.md 2.3)",
+       {"basalt", "pbrt-v4"}},
+  };
+  for (const Choice& c : choices)
+    app.add_option(c.name, *c.var, c.help)->check(CLI::IsMember(c.values));
+  struct Ranged {
+    const char* name;
+    int* var;
+    const char* help;
+    int lo, hi;
+  };
+  const Ranged ranged[] = {
+      {"--noise-octaves", &opt.noise_octaves,
+       "cap the octaves of fbm, wrinkled, windy and marble (0: no cap)", 0, 64},
+      {"--maxdepth", &opt.max_depth,
+       "longest path in bounces (default: the scene's Integrator \"maxdepth\")", 0, 100000},
+      {"--bvh-bins", &opt.bvh_bins, "SAH bins per axis of the BVH build (default 32)", 2, 64},
+      {"--bvh-leaf", &opt.bvh_leaf, "largest BVH leaf (default 8)", 2, 16},
+      {"--coated-nsamples", &opt.coated_nsamples,
+       "replace every coated material's \"nsamples\" (default: the scene's)", 1, 1024},
+      {"--coated-maxdepth", &opt.coated_maxdepth,
+       "replace every coated material's \"maxdepth\" (default: the scene's)", 1, 1024},
+  };
+  for (const Ranged& r : ranged) basalt::cli::ranged(app, r.name, *r.var, r.help, r.lo, r.hi);
   app.add_option("--stats", opt.stats, "write render statistics as JSON to this file");
   app.add_flag("-q,--quiet", opt.quiet, "no progress bar or summary");
   app.add_flag("--list-devices", list, "list Vulkan devices and exit");

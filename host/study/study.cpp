@@ -31,6 +31,7 @@
 #include "image/image_io.h"
 #include "scene/scene.h"
 #include "study/metrics.h"
+#include "util/cli_options.h"
 #include "util/stats.h"
 
 extern char** environ;
@@ -408,13 +409,7 @@ std::string csv_field(const std::string& s) {
 }
 
 /// CSV number ("" for NaN).
-std::string csv_num(double v) {
-  if (!std::isfinite(v)) return "";
-  std::ostringstream s;
-  s.precision(9);
-  s << v;
-  return s.str();
-}
+std::string csv_num(double v) { return std::isfinite(v) ? format_number(v) : ""; }
 
 /// The study itself, once the command line is checked.
 class Study {
@@ -1043,17 +1038,15 @@ int study_main(int argc, char** argv) {
   app.add_option("--reference", opt.reference,
                  "reference EXR at the scene's resolution (default: rendered once with the "
                  "default knobs and cached in --out)");
-  app.add_option("--reference-spp", opt.reference_spp, "samples of the rendered reference "
-                 "(default: 16 x --spp-max)")
-      ->check(CLI::Range(1, 1 << 24));
+  cli::ranged(app, "--reference-spp", opt.reference_spp,
+              "samples of the rendered reference (default: 16 x --spp-max)", 1, 1 << 24);
   app.add_option("--reference-device", opt.reference_device,
                  "device of the rendered reference, one of --devices (default: the one "
                  "predicted fastest from the first runs)");
-  app.add_option("--spp-max", opt.spp_max, "largest samples per pixel; the sweep runs the powers "
-                 "of 2 up to it (default 64)")
-      ->check(CLI::Range(1, 1 << 20));
-  app.add_option("--seeds", opt.seeds, "seeds per point, 1..K (default 3)")
-      ->check(CLI::Range(1, 1000));
+  cli::ranged(app, "--spp-max", opt.spp_max,
+              "largest samples per pixel; the sweep runs the powers of 2 up to it (default 64)", 1,
+              1 << 20);
+  cli::ranged(app, "--seeds", opt.seeds, "seeds per point, 1..K (default 3)", 1, 1000);
   app.add_option("--devices,--device", opt.devices,
                  "comma-separated devices to time (default lavapipe,cpu)")
       ->delimiter(',');

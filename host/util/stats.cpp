@@ -34,13 +34,7 @@ std::string quote(const std::string& s) {
 }
 
 /// JSON number (non-finite values become null).
-std::string number(double v) {
-  if (!std::isfinite(v)) return "null";
-  std::ostringstream s;
-  s.precision(9);
-  s << v;
-  return s.str();
-}
+std::string number(double v) { return std::isfinite(v) ? format_number(v) : "null"; }
 
 }  // namespace
 
@@ -97,6 +91,13 @@ void write_file_atomic(const std::string& path, const std::string& text) {
     }
   }
   std::filesystem::rename(tmp, path);
+}
+
+std::string format_number(double v) {
+  std::ostringstream s;
+  s.precision(9);
+  s << v;
+  return s.str();
 }
 
 }  // namespace basalt

@@ -27,4 +27,7 @@ std::uint64_t peak_rss_bytes();
 /// \brief Writes \p text to \p path through a temporary file renamed into place.
 void write_file_atomic(const std::string& path, const std::string& text);
 
+/// \brief A finite number as text with 9 significant digits (JSON and CSV output).
+std::string format_number(double v);
+
 }  // namespace basalt

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "common/test_util.h"
 #include "scene/tables.h"
 
 namespace basalt::test {
@@ -13,12 +14,7 @@ namespace basalt::test {
 /// A diffuse room corner with a glossy sphere and a glass sphere, lit by a quad area light and
 /// a dim uniform sky (no delta light: every MIS mode is unbiased on it), 40 x 32.
 inline std::string path_knobs_scene() {
-  return R"(
-LookAt 0 1 -4  0 0.8 0  0 1 0
-Camera "perspective" "float fov" [ 45 ]
-Film "rgb" "integer xresolution" [ 40 ] "integer yresolution" [ 32 ]
-Integrator "path" "integer maxdepth" [ 6 ]
-WorldBegin
+  return scene_head("0 1 -4  0 0.8 0  0 1 0", 45, 40, 32, 0, 6) + R"(
 LightSource "infinite" "rgb L" [ 0.1 0.1 0.12 ]
 AttributeBegin
   AreaLightSource "diffuse" "rgb L" [ 8 8 8 ]

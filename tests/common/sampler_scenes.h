@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "common/test_util.h"
 #include "scene/samplers.h"
 #include "scene/tables.h"
 
@@ -45,14 +46,8 @@ inline SceneTables with_sampler(SceneTables t, const SamplerCase& c, int spp, bo
 /// with light sampling alone (--mis light) every pixel is the same smooth integral over the
 /// light pair (cos theta over the upper half of the uniformly sampled sphere).
 inline std::string lit_plane_scene() {
-  return R"(
-LookAt 0 3 0  0 0 0  0 0 1
-Camera "perspective" "float fov" [ 30 ]
-Film "rgb" "integer xresolution" [ 16 ] "integer yresolution" [ 16 ]
-PixelFilter "box"
-Integrator "path" "integer maxdepth" [ 1 ]
-WorldBegin
-LightSource "infinite" "rgb L" [ 1 1 1 ]
+  return scene_head("0 3 0  0 0 0  0 0 1", 30, 16, 16, 0, 1, "PixelFilter \"box\"\n") +
+         R"(LightSource "infinite" "rgb L" [ 1 1 1 ]
 Material "diffuse" "rgb reflectance" [ 0.8 0.8 0.8 ]
 Shape "trianglemesh" "integer indices" [ 0 1 2  0 2 3 ]
   "point3 P" [ -4 0 -4  4 0 -4  4 0 4  -4 0 4 ]

@@ -51,6 +51,18 @@ SceneTables tables_from_string(const std::string& text) {
   return build_tables(load_scene_from_string(text, "test.pbrt", source_path("scenes")));
 }
 
+std::string scene_head(const std::string& look, int fov, int w, int h, int spp, int maxdepth,
+                       const std::string& options) {
+  std::string s = "\nLookAt " + look + "\nCamera \"perspective\" \"float fov\" [ " +
+                  std::to_string(fov) + " ]\nFilm \"rgb\" \"integer xresolution\" [ " +
+                  std::to_string(w) + " ] \"integer yresolution\" [ " + std::to_string(h) + " ]\n";
+  if (spp > 0)
+    s += "Sampler \"independent\" \"integer pixelsamples\" [ " + std::to_string(spp) + " ]\n";
+  if (maxdepth >= 0)
+    s += "Integrator \"path\" \"integer maxdepth\" [ " + std::to_string(maxdepth) + " ]\n";
+  return s + options + "WorldBegin\n";
+}
+
 const char* const kTexturedHead = R"(
 LookAt 0 3 -8  0 0.5 0  0 1 0
 Camera "perspective" "float fov" [ 40 ]

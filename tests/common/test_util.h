@@ -28,6 +28,12 @@ SceneTables tables_from_string(const std::string& text);
 /// A small scene head for texture tests (camera, 16 x 16 film, a uniform sky, WorldBegin): the
 /// texture tests append their textures, materials and shapes (which start on line 7).
 extern const char* const kTexturedHead;
+/// \brief The head of a test scene through WorldBegin: `LookAt` \p look (eye, target and up),
+/// a perspective camera of \p fov degrees, a \p w x \p h film, the independent sampler at
+/// \p spp samples (no Sampler line when 0), the path integrator at \p maxdepth (no Integrator
+/// line when negative), then \p options (more lines before WorldBegin, e.g. a PixelFilter).
+std::string scene_head(const std::string& look, int fov, int w, int h, int spp = 0,
+                       int maxdepth = -1, const std::string& options = "");
 /// \brief Tables of kTexturedHead + \p body as file "t.pbrt", relative files resolved in \p dir.
 SceneTables textured_scene(const std::string& body, const std::string& dir = ".");
 /// \brief The SceneError message of textured_scene(body, dir), or "" if it builds.

@@ -44,7 +44,9 @@ TEST(Sampler, ValuesAreInTheUnitIntervalDeterministicAndKeyed) {
       }
     // Unrandomised samplers repeat across seeds by design (halton's pixel dimensions and all
     // of "none"); otherwise a seed or a pixel changes almost every value.
-    if (std::string(c.randomization) != "none") EXPECT_LT(same_seed, n / 10) << sampler_label(c);
+    if (std::string(c.randomization) != "none") {
+      EXPECT_LT(same_seed, n / 10) << sampler_label(c);
+    }
     EXPECT_LT(same_pixel, n / 10) << sampler_label(c);
   }
 }
