@@ -125,8 +125,8 @@ int run(const Options& opt) {
     std::string sampler = scene.sampler.type;
     if (smp.x == basalt::gpu::SAMPLER_STRATIFIED)
       sampler += smp.y ? " jitter" : " no jitter";
-    else if (smp.x != basalt::gpu::SAMPLER_INDEPENDENT)
-      sampler += std::string(" ") + kRand[smp.y];
+    else if (smp.x != basalt::gpu::SAMPLER_INDEPENDENT && smp.x != basalt::gpu::SAMPLER_PMJ02BN)
+      sampler += std::string(" ") + kRand[smp.y];  // pmj02bn has Cranley-Patterson offsets only
     st.quality.emplace_back("sampler", sampler);
     st.quality.emplace_back("light_sampler", scene.integrator.light_sampler);
     for (auto& k : basalt::apply_layered_knobs(tables, opt.coated_nsamples, opt.coated_maxdepth,
@@ -291,8 +291,9 @@ int main(int argc, char** argv) {
        {"geometric", "pbrt-v4"}},
       {"--sampler", &opt.sampler,
        "sampler instead of the scene's (docs/sampler-spec.md): independent, stratified, halton, "
-       "paddedsobol or zsobol",
-       {"scene", "independent", "stratified", "halton", "paddedsobol", "zsobol"}},
+       "paddedsobol, zsobol, sobol or pmj02bn",
+       {"scene", "independent", "stratified", "halton", "paddedsobol", "zsobol", "sobol",
+        "pmj02bn"}},
       {"--light-sampler", &opt.light_sampler,
        "light selection instead of the scene's Integrator \"lightsampler\": bvh (default), power "
        "or uniform",

@@ -220,6 +220,26 @@ file(READ ${WORK}/zsobol.json zs)
 if(NOT rc EQUAL 0 OR NOT zs MATCHES "\"spp\": 4" OR NOT err MATCHES "power-of-two")
   fail("--sampler zsobol --spp 6: exit ${rc}: ${err} ${zs}")
 endif()
+# sobol and pmj02bn (every sampler pbrt-v4 names): in force in --stats; pmj02bn warns below a
+# power of 4 and refuses more than 65536 samples per pixel (as pbrt-v4), writing nothing.
+execute_process(COMMAND ${BASALT} ${WORK}/good.pbrt --device cpu --quiet --spp 4 --sampler sobol
+                --stats ${WORK}/sobol.json -o ${WORK}/sobol.exr RESULT_VARIABLE rc ERROR_VARIABLE err)
+file(READ ${WORK}/sobol.json so)
+if(NOT rc EQUAL 0 OR NOT so MATCHES "\"sampler\": \"sobol fastowen\"" OR NOT EXISTS ${WORK}/sobol.exr)
+  fail("--sampler sobol: exit ${rc}: ${err} ${so}")
+endif()
+execute_process(COMMAND ${BASALT} ${WORK}/good.pbrt --device cpu --quiet --spp 8 --sampler pmj02bn
+                --stats ${WORK}/pmj.json -o ${WORK}/pmj.exr RESULT_VARIABLE rc ERROR_VARIABLE err)
+file(READ ${WORK}/pmj.json pm)
+if(NOT rc EQUAL 0 OR NOT pm MATCHES "\"sampler\": \"pmj02bn\"" OR NOT pm MATCHES "\"spp\": 8"
+   OR NOT err MATCHES "power of 4")
+  fail("--sampler pmj02bn --spp 8: exit ${rc}: ${err} ${pm}")
+endif()
+execute_process(COMMAND ${BASALT} ${WORK}/good.pbrt --device cpu --quiet --spp 65537 --sampler pmj02bn
+                -o ${WORK}/pmj-big.exr RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 1 OR NOT err MATCHES "at most 65536" OR EXISTS ${WORK}/pmj-big.exr)
+  fail("--sampler pmj02bn --spp 65537: exit ${rc} (expected 1): ${err}")
+endif()
 # Bad values of every quality knob above are a bad command line (exit 2), nothing written.
 foreach(bad "--bump-step;0" "--bump-step;-1" "--bump-step;fine" "--bump-differences;backward"
             "--bump-dndu;maybe" "--displacement-edge-scale;0" "--shading-normal-rule;pbrt-v3"

@@ -1,5 +1,6 @@
 // pbrt-v4's samplers (docs/sampler-spec.md), written from the spec on the CPU side:
-// stratified, halton, paddedsobol and zsobol; independent is rng() of path-spec 1.
+// stratified, halton, paddedsobol, zsobol, sobol and pmj02bn; independent is rng() of
+// path-spec 1.
 #include "cpu/sampler.h"
 
 #include <algorithm>
@@ -276,6 +277,56 @@ float zsobol_get(const gpu::Globals& g, u32 px, u32 py, u32 s, const LdDim& l) {
   return to_unit(scramble(sobol1(u32(idx)), hv.y, rand));
 }
 
+/// Sobol' sample of the uint64 index i in dimension dim: the xor of the generator-matrix columns
+/// of i's set bits (sampler-spec 4, sobol; the matrices are in sampler_data).
+u32 sobol_sample(const SceneTables& t, u64 i, u32 dim) {
+  const u32* col = &t.sampler_data[gpu::SAMPLER_TABLES + dim * gpu::SOBOL_COLUMNS];
+  u32 v = 0;
+  for (u32 j = 0; i != 0 && j < gpu::SOBOL_COLUMNS; ++j, i >>= 1)
+    if (i & 1u) v ^= col[j];
+  return v;
+}
+
+/// pbrt-v4 SobolSampler (sampler-spec 4): the index of sample s inside pixel (px, py) of one
+/// Sobol' sequence over the image (Grünschloß et al., MCQMC 2012), then its dimensions.
+float sobol_get(const SceneTables& t, u32 px, u32 py, u32 s, const LdDim& l) {
+  const gpu::Globals& g = t.globals;
+  const u32 m = g.sampler_params.x;
+  u32 delta = 0;
+  if (m > 0)
+    for (u32 c = 0, f = s; f != 0; ++c, f >>= 1)
+      if (f & 1u) delta ^= t.sampler_data[gpu::SAMPLER_TABLES + gpu::SOBOL_COLUMNS + 2 * m + c] >> (32 - m);
+  const u64 target = (u64(px) << m) | u64(py ^ delta);
+  u32 r = 0;
+  for (u32 b = 0; b < 2 * m; ++b)
+    if ((target >> b) & 1u) r ^= t.sampler_data[gpu::SOBOL_INVERSE + b];
+  const u64 index = (u64(s) << (2 * m)) | r;
+  if (l.pixel) return to_unit(sobol_sample(t, index, l.c) << m);
+  u32 e = l.ld + l.c;
+  if (e >= gpu::SOBOL_DIMENSIONS) e = 2u + (e - 2u) % (gpu::SOBOL_DIMENSIONS - 2u);
+  return to_unit(scramble(sobol_sample(t, index, e), hash4(e, g.image.w, 0x50B01u, 0u).x,
+                          g.sampler_opts.y));
+}
+
+/// pbrt-v4 PMJ02BNSampler (sampler-spec 4; Christensen, Kensler and Kilpatrick, EGSR 2018) on
+/// basalt's own point sets, with Cranley-Patterson offsets from the pixel hash.
+float pmj02bn_get(const SceneTables& t, u32 px, u32 py, u32 s, const LdDim& l) {
+  const gpu::Globals& g = t.globals;
+  const u32 n = g.sampler_opts.z, tbits = g.sampler_params.x;
+  if (l.pixel) {
+    const u32 mask = (1u << tbits) - 1u;
+    const u32 p = (px & mask) + ((py & mask) << tbits);
+    return to_unit(t.sampler_data[gpu::PMJ_PIXEL_TABLE + 2 * (p * n + s) + l.c]);
+  }
+  const glm::uvec4 hv = hash4(px, py, l.ld, g.image.w);
+  if (!l.pair) return strat_frac(permutation_element(s, n, hv.x), n, hv.y >> 8);
+  const u32 inst = l.ld / 2;
+  const u32 index = inst >= 5 ? permutation_element(s, n, hv.x) : s;
+  const u32 v = t.sampler_data[gpu::SAMPLER_TABLES +
+                               2 * ((inst % gpu::PMJ_SETS) * gpu::PMJ_SAMPLES + index) + l.c];
+  return to_unit(v + (l.c == 0 ? hv.y : hv.z));
+}
+
 }  // namespace
 
 float sampler_get(const SceneTables& scene, u32 px, u32 py, u32 s, u32 d) {
@@ -287,6 +338,8 @@ float sampler_get(const SceneTables& scene, u32 px, u32 py, u32 s, u32 d) {
     case gpu::SAMPLER_HALTON: return halton_get(scene, px, py, s, l);
     case gpu::SAMPLER_PADDED_SOBOL: return padded_sobol_get(g, px, py, s, l);
     case gpu::SAMPLER_ZSOBOL: return zsobol_get(g, px, py, s, l);
+    case gpu::SAMPLER_SOBOL: return sobol_get(scene, px, py, s, l);
+    case gpu::SAMPLER_PMJ02BN: return pmj02bn_get(scene, px, py, s, l);
     default: return rng(px, py, s, d, g.image.w);
   }
 }

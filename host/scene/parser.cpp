@@ -16,6 +16,7 @@
 #include "scene/materials.h"
 #include "scene/paramset.h"
 #include "scene/ply.h"
+#include "scene/samplers.h"
 #include "scene/scene.h"
 #include "scene/textures.h"
 #include "scene/tokenizer.h"
@@ -554,7 +555,7 @@ void Parser::film(Tokenizer& tok, const Token& d) {
 constexpr int kMaxSpp = 1 << 24;
 
 // Sampler (docs/sampler-spec.md): pbrt-v4's samplers, with their sample counts, seed and
-// randomisation; "sobol" and "pmj02bn" render with zsobol and a warning.
+// randomisation (every sampler pbrt-v4 names).
 void Parser::sampler(Tokenizer& tok, const Token& d) {
   verify_options(d);
   std::string type = string_arg(tok, d, "a sampler type");
@@ -591,11 +592,12 @@ void Parser::sampler(Tokenizer& tok, const Token& d) {
   sampler_seed_given_ = ps.find("seed") != nullptr;
   s.seed = ps.get_int("seed", 0);
   s.type = type;
-  if (type == "sobol" || type == "pmj02bn") {
-    warn(d.loc, "Sampler '" + type + "' is rendered with 'zsobol' (docs/sampler-spec.md 5)");
-    s.type = "zsobol";
-  } else if (type != "independent" && type != "stratified" && type != "halton" &&
-             type != "paddedsobol" && type != "zsobol") {
+  if (type == "pmj02bn" && s.spp > int(gpu::PMJ_SAMPLES))
+    throw SceneError(ps.loc_of("pixelsamples", d.loc),
+                     "Sampler 'pmj02bn' supports at most 65536 samples per pixel (as pbrt-v4), "
+                     "not " + std::to_string(s.spp));
+  const auto& names = sampler_names();
+  if (std::find(names.begin(), names.end(), type) == names.end()) {
     throw SceneError(d.loc, "unknown Sampler '" + type +
                                 "' (independent, stratified, halton, sobol, paddedsobol, "
                                 "zsobol or pmj02bn)");

@@ -49,7 +49,7 @@ struct Film {
 
 /// The scene's `Sampler` (docs/sampler-spec.md): pbrt-v4's name, sample count and options.
 struct Sampler {
-  std::string type = "independent";  // independent, stratified, halton, paddedsobol, zsobol
+  std::string type = "independent";  // a name of sampler_names() (scene/samplers.h)
   int spp = 16;
   int seed = 0;
   int xsamples = 4, ysamples = 4;     // stratified

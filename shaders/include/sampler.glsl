@@ -209,6 +209,12 @@ bool sampler_dimension(uint d, out uint ld, out uint c, out bool pair) {
   return true;
 }
 
+// (k + j 2^-24) / q for a 24-bit offset j, exactly truncated to 24 bits: the stratified
+// sampler's frac (sampler-spec 4 stratified; pmj02bn's 1D samples use it too).
+float frac24(uint k, uint q, uint j) {
+  return float(uint(((uint64_t(k) << 24u) | uint64_t(j)) / uint64_t(q))) * (1.0 / 16777216.0);
+}
+
 // pbrt-v4 StratifiedSampler (sampler-spec 4 stratified): sample s takes stratum
 // permutation_element(s, n) of the n0 x n1 (pair) or n0 n1 (1D) strata, jittered or centred.
 float stratified_get(uint px, uint py, uint s, uint ld, uint c, bool pair) {
@@ -224,8 +230,7 @@ float stratified_get(uint px, uint py, uint s, uint ld, uint c, bool pair) {
     k = c == 0u ? stratum % n0 : stratum / n0;
     q = c == 0u ? n0 : n1;
   }
-  // (k + j 2^-24) / q, exactly truncated to 24 bits.
-  return float(uint(((uint64_t(k) << 24u) | uint64_t(j)) / uint64_t(q))) * (1.0 / 16777216.0);
+  return frac24(k, q, j);
 }
 
 // pbrt-v4 HaltonSampler (sampler-spec 4 halton): the pixel's samples are the Halton points
@@ -290,6 +295,65 @@ float zsobol_get(uint px, uint py, uint s, uint ld, uint c) {
   return to_unit(scramble(v, c == 0u ? hv.x : hv.y, globals.sampler_opts.y));
 }
 
+// Point i (i < 2^52) of Sobol' dimension dim: the xor of the generator matrix's columns
+// M(dim, j) = sampler_data[SAMPLER_TABLES + dim SOBOL_COLUMNS + j] over i's set bits j
+// (Sobol' 1967; Joe & Kuo 2008 directions; sampler-spec 3 and 4 sobol).
+uint sobol(uint64_t i, uint dim) {
+  uint base = SAMPLER_TABLES + dim * SOBOL_COLUMNS;
+  uint lo = uint(i), hi = uint(i >> 32u), v = 0u;
+  [[dont_unroll]] for (; lo != 0u; lo &= lo - 1u) v ^= sampler_data[base + uint(findLSB(lo))];
+  [[dont_unroll]] for (; hi != 0u; hi &= hi - 1u)
+    v ^= sampler_data[base + 32u + uint(findLSB(hi))];
+  return v;
+}
+
+// pbrt-v4 SobolSampler, after Gruenschloss et al., "Enumerating quasi-Monte Carlo point
+// sequences in elementary intervals" (MCQMC 2012) (sampler-spec 4 sobol): one Sobol' sequence
+// over the whole image, sample s of pixel (px, py) being its s-th point whose first two
+// dimensions' top m digits are (px, py), found with the inverse table INV.
+float sobol_get(uint px, uint py, uint s, uint ld, uint c) {
+  uint m = globals.sampler_params.x;
+  // What the index bits s << 2m add to dimension 1's top m digits (dimension 0's: nothing).
+  uint delta = 0u;
+  if (m > 0u) {
+    [[dont_unroll]] for (uint b = s; b != 0u; b &= b - 1u)
+      delta ^= sampler_data[SAMPLER_TABLES + SOBOL_COLUMNS + 2u * m + uint(findLSB(b))] >>
+               (32u - m);
+  }
+  uint t = (px << m) | (py ^ delta);
+  uint r = 0u;
+  [[dont_unroll]] for (; t != 0u; t &= t - 1u) r ^= sampler_data[SOBOL_INVERSE + uint(findLSB(t))];
+  uint64_t i = (uint64_t(s) << (2u * m)) | uint64_t(r);
+  // One sobol call site: the pixel pair is dimension c scaled by 2^m and never scrambled;
+  // other dimensions restart at 2 past the table's end.
+  uint e = ld + c;
+  if (e >= SOBOL_DIMENSIONS) e = 2u + (e - 2u) % (SOBOL_DIMENSIONS - 2u);
+  uint h = hash4(e, globals.image.w, 0x50B01u, 0u).x;
+  uint v = sobol(i, e);  // e = c for the pixel pair
+  return to_unit(ld == 0u ? v << m : scramble(v, h, globals.sampler_opts.y));
+}
+
+// pbrt-v4 PMJ02BNSampler, after Christensen, Kensler & Kilpatrick, "Progressive Multi-Jittered
+// Sample Sequences" (EGSR 2018) (sampler-spec 4 pmj02bn): the pixel pair from the host's
+// per-tile-pixel table Q, other pairs from the five point sets P with per-pixel
+// Cranley-Patterson offsets, 1D samples stratified in n strata.
+float pmj02bn_get(uint px, uint py, uint s, uint ld, uint c, bool pair) {
+  uint n = globals.sampler_opts.z;
+  uvec4 hv = hash4(px, py, ld, globals.image.w);
+  uint inst = ld / 2u;
+  // pbrt-v4 permutes the index of 1D samples, and of pairs from the second time through the sets.
+  uint index = !pair || inst >= PMJ_SETS ? permutation_element(s, n, hv.x) : s;
+  if (!pair) return frac24(index, n, hv.y >> 8u);
+  uint tmask = (1u << globals.sampler_params.x) - 1u;  // T - 1, T = 2^tbits
+  uint p = (px & tmask) + ((py & tmask) << globals.sampler_params.x);
+  // One table read: Q(p, s) unrandomised for the pixel pair, else P(inst % 5, index) rotated.
+  bool pixel = ld == 0u;
+  uint at = pixel ? PMJ_PIXEL_TABLE + 2u * (p * n + s)
+                  : SAMPLER_TABLES + 2u * ((inst % PMJ_SETS) * PMJ_SAMPLES + index);
+  uint offset = pixel ? 0u : (c == 0u ? hv.y : hv.z);
+  return to_unit(sampler_data[at + c] + offset);
+}
+
 // Sample value of path dimension d for pixel (px, py) and sample s under the scene's sampler
 // Globals.sampler_opts.x (sampler-spec 2 and 4); the independent sampler is rng itself. Each
 // sampler's code is compiled in only with its FEATURE2_SAMPLER_* bit.
@@ -308,6 +372,10 @@ float sampler_get(uint px, uint py, uint s, uint d) {
     return padded_sobol_get(px, py, s, ld, c, pair);
   if ((FEATURES2 & FEATURE2_SAMPLER_ZSOBOL) != 0u && type == SAMPLER_ZSOBOL)
     return zsobol_get(px, py, s, ld, c);
+  if ((FEATURES2 & FEATURE2_SAMPLER_SOBOL) != 0u && type == SAMPLER_SOBOL)
+    return sobol_get(px, py, s, ld, c);
+  if ((FEATURES2 & FEATURE2_SAMPLER_PMJ02BN) != 0u && type == SAMPLER_PMJ02BN)
+    return pmj02bn_get(px, py, s, ld, c, pair);
   return rng(px, py, s, d);
 }
 

@@ -47,8 +47,8 @@ using mat4 = glm::mat4;
 #define BINDING_TEXELS1 18   // texels chunks 1, 2 and 3 (floats TEXEL_CHUNK k .. ); each binding
 #define BINDING_TEXELS2 19   //   stays within every device's maxStorageBufferRange (at least
 #define BINDING_TEXELS3 20   //   2^27 bytes in Vulkan), so image data may total 512 MiB
-#define BINDING_SAMPLER_DATA 21  // uint sampler_data[]: the first SAMPLER_PRIME_COUNT primes
-                                 //   (docs/sampler-spec.md 3)
+#define BINDING_SAMPLER_DATA 21  // uint sampler_data[]: the first SAMPLER_PRIME_COUNT primes,
+                                 //   then the sobol or pmj02bn tables (docs/sampler-spec.md 3)
 #define BINDING_COUNT 22
 // Texel index g (a float index into the whole texel table) lives in chunk g >> TEXEL_CHUNK_SHIFT
 // at index g & (TEXEL_CHUNK - 1) of that chunk's binding.
@@ -118,8 +118,10 @@ BASALT_CONST uint FEATURE2_SAMPLER_STRATIFIED = 1u << 10;
 BASALT_CONST uint FEATURE2_SAMPLER_HALTON = 1u << 11;
 BASALT_CONST uint FEATURE2_SAMPLER_PADDED_SOBOL = 1u << 12;
 BASALT_CONST uint FEATURE2_SAMPLER_ZSOBOL = 1u << 13;
-BASALT_CONST uint FEATURE2_SAMPLERS = 0xfu << 10;      // all four
-BASALT_CONST uint FEATURE2_COUNT = 14u;
+BASALT_CONST uint FEATURE2_SAMPLER_SOBOL = 1u << 14;
+BASALT_CONST uint FEATURE2_SAMPLER_PMJ02BN = 1u << 15;
+BASALT_CONST uint FEATURE2_SAMPLERS = 0x3fu << 10;     // all six
+BASALT_CONST uint FEATURE2_COUNT = 16u;
 
 // ---- primitive references ------------------------------------------------------------
 // A BVH leaf covers prim_refs[a .. a+b). A ref is a triangle index, or a sphere index
@@ -300,11 +302,21 @@ BASALT_CONST uint SAMPLER_STRATIFIED = 1u;
 BASALT_CONST uint SAMPLER_HALTON = 2u;
 BASALT_CONST uint SAMPLER_PADDED_SOBOL = 3u;
 BASALT_CONST uint SAMPLER_ZSOBOL = 4u;
+BASALT_CONST uint SAMPLER_SOBOL = 5u;
+BASALT_CONST uint SAMPLER_PMJ02BN = 6u;
 BASALT_CONST uint RAND_NONE = 0u;
 BASALT_CONST uint RAND_PERMUTE = 1u;
 BASALT_CONST uint RAND_FASTOWEN = 2u;
 BASALT_CONST uint RAND_OWEN = 3u;
 BASALT_CONST uint SAMPLER_PRIME_COUNT = 1000u;  // primes at the start of sampler_data
+// Tables of the sobol and pmj02bn samplers in sampler_data, after the primes (sampler-spec 3).
+BASALT_CONST uint SAMPLER_TABLES = SAMPLER_PRIME_COUNT;  // offset of the first table
+BASALT_CONST uint SOBOL_DIMENSIONS = 1024u;  // Sobol' dimensions (Joe & Kuo 2008 for 1..1023)
+BASALT_CONST uint SOBOL_COLUMNS = 52u;       // generator-matrix columns: indices below 2^52
+BASALT_CONST uint SOBOL_INVERSE = SAMPLER_TABLES + SOBOL_DIMENSIONS * SOBOL_COLUMNS;
+BASALT_CONST uint PMJ_SETS = 5u;             // pmj02bn point sets
+BASALT_CONST uint PMJ_SAMPLES = 65536u;      // points per set (the spp limit of pmj02bn)
+BASALT_CONST uint PMJ_PIXEL_TABLE = SAMPLER_TABLES + 2u * PMJ_SETS * PMJ_SAMPLES;
 
 // Offsets into tex_data of the shared tables (Globals.tex_tables), docs/textures-spec.md 5.
 // tex_tables.x: noise permutation (512 floats holding integers), y: EWA weight table

@@ -22,7 +22,8 @@ inline std::vector<SamplerCase> sampler_cases() {
           {"paddedsobol", ""},       {"zsobol", ""},           {"halton", "none"},
           {"halton", "owen"},        {"paddedsobol", "none"},  {"paddedsobol", "permutedigits"},
           {"paddedsobol", "owen"},   {"zsobol", "none"},       {"zsobol", "permutedigits"},
-          {"zsobol", "owen"}};
+          {"zsobol", "owen"},        {"sobol", ""},            {"sobol", "none"},
+          {"sobol", "permutedigits"}, {"sobol", "owen"},       {"pmj02bn", ""}};
 }
 
 /// Label of a case, e.g. "zsobol/owen".

@@ -248,10 +248,24 @@ TEST(Parser, AcceptedWithWarnings) {
                      std::string(kSphere)),
                SceneError);
   EXPECT_THROW(parse("Sampler \"lowdiscrepancy\"\n" + std::string(kSphere)), SceneError);
+  // Every sampler pbrt-v4 names is honoured, sobol with its randomization; pmj02bn refuses
+  // more than 65536 samples per pixel, located at the count (pbrt-v4 refuses them too).
   s = parse("Sampler \"pmj02bn\"\n" + std::string(kSphere));
-  EXPECT_EQ(s.sampler.type, "zsobol");
-  EXPECT_TRUE(has_warning(s, "t.pbrt:1:1: warning: Sampler 'pmj02bn' is rendered with 'zsobol' "
-                             "(docs/sampler-spec.md 5)"));
+  EXPECT_EQ(s.sampler.type, "pmj02bn");
+  EXPECT_EQ(s.sampler.spp, 16);
+  EXPECT_TRUE(s.warnings.empty());
+  s = parse("Sampler \"sobol\" \"string randomization\" \"owen\" \"integer pixelsamples\" 8\n" +
+            std::string(kSphere));
+  EXPECT_EQ(s.sampler.type, "sobol");
+  EXPECT_EQ(s.sampler.randomization, "owen");
+  EXPECT_EQ(s.sampler.spp, 8);
+  try {
+    parse("Sampler \"pmj02bn\"\n  \"integer pixelsamples\" 65537\n" + std::string(kSphere));
+    ADD_FAILURE() << "pmj02bn accepted 65537 samples per pixel";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("t.pbrt:2:3"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("at most 65536"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Parser, OptionSeedIsTheDefaultSamplerSeed) {
