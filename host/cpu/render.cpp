@@ -7,12 +7,14 @@
 #include <thread>
 
 #include "cpu/integrator.h"
+#include "scene/samplers.h"
 
 namespace basalt::cpu {
 
 std::uint64_t render(const SceneTables& scene, std::uint32_t sample_start, std::uint32_t sample_count,
             std::vector<glm::vec4>& accum, const std::function<void(double)>& progress,
             std::uint64_t* nonfinite_samples) {
+  check_sample_count(scene.globals, sample_start + sample_count);
   const std::uint32_t w = scene.width(), h = scene.height();
   const std::size_t npix = std::size_t(w) * h;
   if (accum.size() != npix) accum.assign(npix, glm::vec4(0.0f));

@@ -124,6 +124,15 @@ std::vector<std::uint32_t> pmj02bn_pixel_table(const std::vector<std::uint32_t>&
 
 }  // namespace
 
+void check_sample_count(const gpu::Globals& g, std::uint32_t end) {
+  const glm::uvec4 o = g.sampler_opts;
+  const std::uint64_t built = o.x == gpu::SAMPLER_STRATIFIED ? std::uint64_t(o.z) * o.w : o.z;
+  if (o.x != gpu::SAMPLER_INDEPENDENT && end > built)
+    throw std::invalid_argument("the sampler was built for " + std::to_string(built) +
+                                " samples per pixel, not " + std::to_string(end) +
+                                " (build the tables with the sample count rendered)");
+}
+
 const std::vector<std::string>& sampler_names() {
   static const std::vector<std::string> names = {"independent", "stratified", "halton",
                                                  "paddedsobol", "zsobol",     "sobol",

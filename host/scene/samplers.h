@@ -18,6 +18,11 @@ Sampler resolve_sampler(const Sampler& s, std::string* warning = nullptr);
 /// resolved sampler \p s (tables already hold the image size).
 void sampler_tables(SceneTables& t, const Sampler& s);
 
+/// \brief Throws std::invalid_argument when samples [0, \p end) exceed the count the sampler in
+/// \p g was built for (Globals.sampler_opts.z, stratified z x w): past it, the stratified,
+/// zsobol, sobol and pmj02bn samplers would reuse sample indices across pixels or strata.
+void check_sample_count(const gpu::Globals& g, std::uint32_t end);
+
 /// \brief Names of the samplers basalt renders, in SAMPLER_* order.
 const std::vector<std::string>& sampler_names();
 

@@ -49,7 +49,7 @@ struct Film {
 
 /// The scene's `Sampler` (docs/sampler-spec.md): pbrt-v4's name, sample count and options.
 struct Sampler {
-  std::string type = "independent";  // a name of sampler_names() (scene/samplers.h)
+  std::string type = "zsobol";  // a name of sampler_names(); pbrt-v4's default without a Sampler
   int spp = 16;
   int seed = 0;
   int xsamples = 4, ysamples = 4;     // stratified

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "scene/samplers.h"
 #include "shaders/probe.spv.h"
 #include "shaders/render.spv.h"
 #include "shaders/render_lean.spv.h"
@@ -247,6 +248,11 @@ void GpuRenderer::render(std::uint32_t sample_start, std::uint32_t count,
                          const std::function<void(double)>& progress, double seconds_per_pass) {
   if (!render_.pipeline)
     throw std::logic_error("GpuRenderer::render: built without a render pipeline (probes only)");
+  {
+    gpu::Globals g;  // the uploaded Globals, whose sampler must cover the samples asked for
+    std::memcpy(&g, tables_[BINDING_GLOBALS].mapped, sizeof(g));
+    check_sample_count(g, sample_start + count);
+  }
   // Work is counted in invocation slots (pixels, padded to whole 8x8 tiles) times samples.
   const std::uint32_t total = slots_;
   const double work = double(total) * count;

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <vector>
 
 #include "common/path_knobs_scene.h"
@@ -65,6 +66,63 @@ TEST(PathKnobs, UnbiasedSettingsConvergeAndDepthLimitsAreAFloor) {
       EXPECT_LT(std::fabs(d), 4.0 * se) << k.name << " should converge to the default";
     else
       EXPECT_LT(d, -4.0 * se) << k.name << " should lose the light of longer paths";
+  }
+}
+
+TEST(PathKnobs, ErrorFitHasAFloorOnlyWhenBiased) {
+  // Issue 10's convergence criterion, as basalt study fits it: the mean squared error against a
+  // reference, over spp, fitted as a / spp + c. The reference (1024 spp, another seed) adds its
+  // own variance to every point: half the MSE between it and a second reference. The fit is
+  // made on spp x MSE = a + c spp, whose scatter is about the same at every spp (that of MSE
+  // falls as 1 / spp), by least squares over 3 seeds x 5 sample counts. An unbiased setting (the
+  // balance heuristic, roulette from bounce 3) leaves c within noise of the reference's share (3
+  // standard errors of the fitted c; measured within 1); a biased one (maxdepth 1) a floor far
+  // above it (measured 41 standard errors), the squared bias more samples cannot remove.
+  SceneTables base = tables_from_string(path_knobs_scene());
+  auto mse_of = [](const std::vector<glm::vec3>& a, const std::vector<glm::vec3>& b) {
+    double sum = 0.0;
+    for (std::size_t i = 0; i < a.size(); ++i)
+      for (int c = 0; c < 3; ++c) sum += double(a[i][c] - b[i][c]) * (a[i][c] - b[i][c]);
+    return sum / (3.0 * a.size());
+  };
+  set_seed(base, 2);
+  const std::vector<glm::vec3> ref2 = render(Side::Cpu, base, 1024);
+  set_seed(base, 1);
+  const std::vector<glm::vec3> ref = render(Side::Cpu, base, 1024);
+  // The reference's own variance: half the MSE between two independent references.
+  const double ref_floor = 0.5 * mse_of(ref, ref2);
+  for (const char* name : {"mis-balance", "roulette-3", "maxdepth-1"}) {
+    PathKnobSetting k{};
+    for (const PathKnobSetting& s : path_knob_settings())
+      if (std::string(s.name) == name) k = s;
+    std::vector<double> x, y;  // spp, spp x MSE
+    for (std::uint32_t spp : {4u, 8u, 16u, 64u, 256u})
+      for (std::uint32_t seed = 10; seed < 13; ++seed) {
+        SceneTables t = base;
+        apply_setting(t, k);
+        set_seed(t, seed);
+        x.push_back(spp);
+        y.push_back(spp * mse_of(render(Side::Cpu, t, spp), ref));
+      }
+    // Ordinary least squares y = a + c x and the standard error of the slope c.
+    const double n = double(x.size());
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      sx += x[i];
+      sy += y[i];
+      sxx += x[i] * x[i];
+      sxy += x[i] * y[i];
+    }
+    const double c = (n * sxy - sx * sy) / (n * sxx - sx * sx), a = (sy - c * sx) / n;
+    double rss = 0.0;
+    for (std::size_t i = 0; i < x.size(); ++i) rss += (y[i] - a - c * x[i]) * (y[i] - a - c * x[i]);
+    const double se_c = std::sqrt(rss / (n - 2) * n / (n * sxx - sx * sx));
+    std::printf("[ knobs ] %-11s MSE = %.4g / spp + %.3g (se %.2g; the reference's own %.2g)\n",
+                k.name, a, c, se_c, ref_floor);
+    if (k.unbiased)
+      EXPECT_LT(std::fabs(c - ref_floor), 3.0 * se_c) << k.name << ": a floor where none should be";
+    else
+      EXPECT_GT(c - ref_floor, 10.0 * se_c) << k.name << ": no floor from its bias";
   }
 }
 
