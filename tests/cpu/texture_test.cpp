@@ -253,8 +253,7 @@ TEST(TextureFeatures, OnlyWhatTheSceneReaches) {
   EXPECT_TRUE(t.features & gpu::FEATURE_TEXTURES);
   EXPECT_FALSE(t.features & (gpu::FEATURE_TEX_NOISE | gpu::FEATURE_TEX_IMAGE));
   EXPECT_FALSE(t.features & gpu::FEATURE_MAT_CONDUCTOR) << "a material no shape uses";
-  // (The sampler's bit is the scene's too: without a Sampler statement, pbrt-v4's zsobol.)
-  EXPECT_EQ(t.features2, gpu::FEATURE2_TEX_CHECKER_AA | gpu::FEATURE2_SAMPLER_ZSOBOL);
+  EXPECT_EQ(t.features2, gpu::FEATURE2_TEX_CHECKER_AA);
   // Constant textures fold into the slot: no texture code at all, the same value.
   t = textured("Texture \"k\" \"spectrum\" \"constant\" \"rgb value\" [ 0.2 0.3 0.4 ]\n"
                "Material \"diffuse\" \"texture reflectance\" \"k\"\nShape \"sphere\"\n");
@@ -268,8 +267,7 @@ TEST(TextureFeatures, OnlyWhatTheSceneReaches) {
                "Material \"diffuse\" \"texture reflectance\" \"m\"\nShape \"sphere\"\n");
   EXPECT_TRUE(t.features & gpu::FEATURE_TEX_NOISE);
   EXPECT_EQ(t.features2, gpu::FEATURE2_TEX_CHECKER_AA | gpu::FEATURE2_TEX_PROCEDURAL |
-                             gpu::FEATURE2_TEX_MAP_CURVED | gpu::FEATURE2_NOISE_SPLIT |
-                             gpu::FEATURE2_SAMPLER_ZSOBOL);
+                             gpu::FEATURE2_TEX_MAP_CURVED | gpu::FEATURE2_NOISE_SPLIT);
 }
 
 }  // namespace
