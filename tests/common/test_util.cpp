@@ -53,14 +53,16 @@ SceneTables tables_from_string(const std::string& text) {
 
 std::string scene_head(const std::string& look, int fov, int w, int h, int spp, int maxdepth,
                        const std::string& options) {
+  // The independent sampler, whatever the sample count rendered (a scene without a Sampler
+  // statement gets zsobol, built for its pixelsamples): with no count, on the Film line, so
+  // that the lines of what follows are where they were.
   std::string s = "\nLookAt " + look + "\nCamera \"perspective\" \"float fov\" [ " +
                   std::to_string(fov) + " ]\nFilm \"rgb\" \"integer xresolution\" [ " +
-                  std::to_string(w) + " ] \"integer yresolution\" [ " + std::to_string(h) + " ]\n";
-  // The independent sampler, whatever the sample count rendered (a scene without a Sampler
-  // statement gets zsobol, built for its pixelsamples).
-  s += "Sampler \"independent\"";
-  if (spp > 0) s += " \"integer pixelsamples\" [ " + std::to_string(spp) + " ]";
-  s += "\n";
+                  std::to_string(w) + " ] \"integer yresolution\" [ " + std::to_string(h) + " ]";
+  if (spp > 0)
+    s += "\nSampler \"independent\" \"integer pixelsamples\" [ " + std::to_string(spp) + " ]\n";
+  else
+    s += " Sampler \"independent\"\n";
   if (maxdepth >= 0)
     s += "Integrator \"path\" \"integer maxdepth\" [ " + std::to_string(maxdepth) + " ]\n";
   return s + options + "WorldBegin\n";
@@ -69,8 +71,7 @@ std::string scene_head(const std::string& look, int fov, int w, int h, int spp, 
 const char* const kTexturedHead = R"(
 LookAt 0 3 -8  0 0.5 0  0 1 0
 Camera "perspective" "float fov" [ 40 ]
-Film "rgb" "integer xresolution" [ 16 ] "integer yresolution" [ 16 ]
-Sampler "independent"
+Film "rgb" "integer xresolution" [ 16 ] "integer yresolution" [ 16 ] Sampler "independent"
 WorldBegin
 LightSource "infinite" "rgb L" [ 1 1 1 ]
 )";

@@ -30,7 +30,7 @@ SceneTables tables_from_string(const std::string& text);
 extern const char* const kTexturedHead;
 /// \brief The head of a test scene through WorldBegin: `LookAt` \p look (eye, target and up),
 /// a perspective camera of \p fov degrees, a \p w x \p h film, the independent sampler at
-/// \p spp samples (no Sampler line when 0), the path integrator at \p maxdepth (no Integrator
+/// \p spp samples (its default count when 0), the path integrator at \p maxdepth (no Integrator
 /// line when negative), then \p options (more lines before WorldBegin, e.g. a PixelFilter).
 std::string scene_head(const std::string& look, int fov, int w, int h, int spp = 0,
                        int maxdepth = -1, const std::string& options = "");

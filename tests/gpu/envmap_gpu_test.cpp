@@ -287,6 +287,7 @@ TEST(EnvmapGpu, ConstantMapRendersAsUniformLight) {
   const SceneTables uni = tables_from_string(
       "LookAt 0 0 -4  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 40 ]\n"
       "Film \"rgb\" \"integer xresolution\" [ 24 ] \"integer yresolution\" [ 24 ]\n"
+      "Sampler \"independent\"\n"
       "WorldBegin\nLightSource \"infinite\" \"rgb L\" [ 0.6 0.4 0.25 ]\n"
       "Material \"diffuse\" \"rgb reflectance\" [ 0.5 0.5 0.5 ]\n"
       "Shape \"sphere\" \"float radius\" [ 1 ]\n");
