@@ -8,6 +8,7 @@
 #include <bit>
 
 #include "cpu/rng.h"
+#include "scene/sobol.h"
 
 namespace basalt::cpu {
 
@@ -62,29 +63,6 @@ u32 permutation_element(u32 i, u32 n, u32 p) {
     i ^= i >> 5;
   } while (i >= n);
   return (i + p) % n;
-}
-
-/// Bits of \p v in reverse order.
-u32 reverse_bits(u32 v) {
-  v = ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
-  v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
-  v = ((v >> 4) & 0x0f0f0f0fu) | ((v & 0x0f0f0f0fu) << 4);
-  v = ((v >> 8) & 0x00ff00ffu) | ((v & 0x00ff00ffu) << 8);
-  return (v >> 16) | (v << 16);
-}
-
-/// First Sobol' dimension: the van der Corput sequence (Sobol' 1967).
-u32 sobol0(u32 a) { return reverse_bits(a); }
-
-/// Second Sobol' dimension (primitive polynomial x + 1): column i is column i-1 xor itself
-/// shifted right by one.
-u32 sobol1(u32 a) {
-  u32 v = 0, c = 0x80000000u;
-  for (; a != 0; a >>= 1) {
-    if (a & 1u) v ^= c;
-    c ^= c >> 1;
-  }
-  return v;
 }
 
 /// Randomises a 32-bit fraction with seed h (pbrt-v4 lowdiscrepancy.h: BinaryPermute,

@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "../../shaders/shared/layout.h"
+#include "sobol.h"
 
 namespace basalt {
 
@@ -34,16 +35,6 @@ struct SplitMix {
     return z ^ (z >> 31);
   }
 };
-
-/// Sobol' dimension 1 of index a (primitive polynomial x + 1), unscrambled.
-u32 sobol_dim1(u32 a) {
-  u32 v = 0, c = 0x80000000u;
-  for (; a != 0; a >>= 1) {
-    if (a & 1u) v ^= c;
-    c ^= c >> 1;
-  }
-  return v;
-}
 
 /// One dimension's Owen scrambling tree, depths 0 .. kLevels-1: flip[d][p] for the node whose
 /// unscrambled prefix is the d-digit number p; -1 until a point has visited it.
@@ -149,12 +140,7 @@ std::vector<std::uint32_t> pmj02bn_set(std::uint32_t set, std::uint32_t candidat
   SplitMix rng{0x706d6a3032626eull ^ (u64(set) << 48)};  // "pmj02bn" and the set
   for (u32 i = 0; i < n; ++i) {
     // Unscrambled Sobol' dimensions 0 (van der Corput) and 1 of index i.
-    u32 rev = i;
-    rev = ((rev >> 1) & 0x55555555u) | ((rev & 0x55555555u) << 1);
-    rev = ((rev >> 2) & 0x33333333u) | ((rev & 0x33333333u) << 2);
-    rev = ((rev >> 4) & 0x0f0f0f0fu) | ((rev & 0x0f0f0f0fu) << 4);
-    rev = ((rev >> 8) & 0x00ff00ffu) | ((rev & 0x00ff00ffu) << 8);
-    const u32 ux = (rev >> 16) | (rev << 16), uy = sobol_dim1(i);
+    const u32 ux = sobol0(i), uy = sobol1(i);
     const auto [dx, fx] = tx.fixed(ux);
     const auto [dy, fy] = ty.fixed(uy);
     const u32 mask_x = dx >= 32 ? 0u : ~0u >> dx, mask_y = dy >= 32 ? 0u : ~0u >> dy;

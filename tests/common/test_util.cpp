@@ -169,4 +169,25 @@ void mean_and_se(const std::vector<glm::vec3>& im, double& m, double& se) {
   se = std::sqrt(std::max(0.0, s2 / k - m * m) / k);
 }
 
+LineFit fit_line(const std::vector<double>& x, const std::vector<double>& y) {
+  const double n = double(x.size());
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    sx += x[i];
+    sy += y[i];
+    sxx += x[i] * x[i];
+    sxy += x[i] * y[i];
+  }
+  LineFit f{};
+  f.slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+  f.intercept = (sy - f.slope * sx) / n;
+  double rss = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double r = y[i] - f.intercept - f.slope * x[i];
+    rss += r * r;
+  }
+  f.se_slope = std::sqrt(rss / (n - 2) * n / (n * sxx - sx * sx));
+  return f;
+}
+
 }  // namespace basalt::test

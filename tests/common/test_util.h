@@ -62,4 +62,12 @@ double mean(const std::vector<glm::vec3>& img);
 /// independent samples).
 void mean_and_se(const std::vector<glm::vec3>& im, double& m, double& se);
 
+/// A least-squares line y = intercept + slope x and the standard error of its slope.
+struct LineFit {
+  double slope, intercept, se_slope;
+};
+/// \brief Ordinary least squares of \p y on \p x (at least 3 points); se_slope from the
+/// residuals.
+LineFit fit_line(const std::vector<double>& x, const std::vector<double>& y);
+
 }  // namespace basalt::test

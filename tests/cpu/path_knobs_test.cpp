@@ -104,19 +104,9 @@ TEST(PathKnobs, ErrorFitHasAFloorOnlyWhenBiased) {
         x.push_back(spp);
         y.push_back(spp * mse_of(render(Side::Cpu, t, spp), ref));
       }
-    // Ordinary least squares y = a + c x and the standard error of the slope c.
-    const double n = double(x.size());
-    double sx = 0, sy = 0, sxx = 0, sxy = 0;
-    for (std::size_t i = 0; i < x.size(); ++i) {
-      sx += x[i];
-      sy += y[i];
-      sxx += x[i] * x[i];
-      sxy += x[i] * y[i];
-    }
-    const double c = (n * sxy - sx * sy) / (n * sxx - sx * sx), a = (sy - c * sx) / n;
-    double rss = 0.0;
-    for (std::size_t i = 0; i < x.size(); ++i) rss += (y[i] - a - c * x[i]) * (y[i] - a - c * x[i]);
-    const double se_c = std::sqrt(rss / (n - 2) * n / (n * sxx - sx * sx));
+    // Least squares spp x MSE = a + c spp, and the standard error of c.
+    const LineFit f = fit_line(x, y);
+    const double a = f.intercept, c = f.slope, se_c = f.se_slope;
     std::printf("[ knobs ] %-11s MSE = %.4g / spp + %.3g (se %.2g; the reference's own %.2g)\n",
                 k.name, a, c, se_c, ref_floor);
     if (k.unbiased)

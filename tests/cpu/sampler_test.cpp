@@ -286,15 +286,7 @@ TEST(Sampler, LowDiscrepancySamplersConvergeFasterThanOneOverSpp) {
       ly.push_back(std::log(mse_over_seeds(base, c, spp, 8)));
     }
     // Least-squares slope of log MSE against log spp.
-    const double n = double(lx.size());
-    double sx = 0, sy = 0, sxx = 0, sxy = 0;
-    for (std::size_t i = 0; i < lx.size(); ++i) {
-      sx += lx[i];
-      sy += ly[i];
-      sxx += lx[i] * lx[i];
-      sxy += lx[i] * ly[i];
-    }
-    const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+    const double slope = fit_line(lx, ly).slope;
     std::printf("[ sampler ] %-22s MSE at 16/64/256 spp %.3g %.3g %.3g  slope %.2f\n",
                 sampler_label(c).c_str(), std::exp(ly[0]), std::exp(ly[1]), std::exp(ly[2]),
                 slope);
