@@ -2,19 +2,22 @@
 #include "image/image_io.h"
 
 #include <png.h>
-#include <unistd.h>
 
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
+#include <ImfIO.h>
 #include <ImfOutputFile.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <stdexcept>
+
+#include "util/files.h"
 
 namespace basalt {
 
@@ -33,36 +36,64 @@ float srgb_encode(float v) {
   return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
 }
 
-/// Writes float RGB channels with OpenEXR.
-void write_exr_file(const std::string& path, const Image& img) {
+/// An in-memory OpenEXR output stream (the file is then written whole: write_file_bytes).
+class MemoryOStream : public Imf::OStream {
+ public:
+  MemoryOStream() : Imf::OStream("memory") {}
+  void write(const char c[], int n) override {
+    if (pos_ + std::size_t(n) > data.size()) data.resize(pos_ + std::size_t(n));
+    std::memcpy(data.data() + pos_, c, std::size_t(n));
+    pos_ += std::size_t(n);
+  }
+  uint64_t tellp() override { return pos_; }
+  void seekp(uint64_t pos) override { pos_ = std::size_t(pos); }
+  std::string data;
+
+ private:
+  std::size_t pos_ = 0;
+};
+
+/// Encodes float RGB channels as an OpenEXR file.
+std::string encode_exr(const Image& img) {
   Imf::Header header(img.width, img.height);
   header.channels().insert("R", Imf::Channel(Imf::FLOAT));
   header.channels().insert("G", Imf::Channel(Imf::FLOAT));
   header.channels().insert("B", Imf::Channel(Imf::FLOAT));
-  Imf::OutputFile file(path.c_str(), header);
-  Imf::FrameBuffer fb;
-  char* base = const_cast<char*>(reinterpret_cast<const char*>(img.pixels.data()));
-  const size_t xs = sizeof(glm::vec3), ys = xs * img.width;
-  fb.insert("R", Imf::Slice(Imf::FLOAT, base + 0, xs, ys));
-  fb.insert("G", Imf::Slice(Imf::FLOAT, base + 4, xs, ys));
-  fb.insert("B", Imf::Slice(Imf::FLOAT, base + 8, xs, ys));
-  file.setFrameBuffer(fb);
-  file.writePixels(img.height);
+  MemoryOStream out;
+  {
+    Imf::OutputFile file(out, header);
+    Imf::FrameBuffer fb;
+    char* base = const_cast<char*>(reinterpret_cast<const char*>(img.pixels.data()));
+    const size_t xs = sizeof(glm::vec3), ys = xs * img.width;
+    fb.insert("R", Imf::Slice(Imf::FLOAT, base + 0, xs, ys));
+    fb.insert("G", Imf::Slice(Imf::FLOAT, base + 4, xs, ys));
+    fb.insert("B", Imf::Slice(Imf::FLOAT, base + 8, xs, ys));
+    file.setFrameBuffer(fb);
+    file.writePixels(img.height);
+  }  // the OutputFile writes its line offsets when it closes
+  return std::move(out.data);
 }
 
-/// Writes 8-bit sRGB with libpng.
-void write_png_file(const std::string& path, const Image& img) {
-  std::unique_ptr<FILE, int (*)(FILE*)> fp(std::fopen(path.c_str(), "wb"), &std::fclose);
-  if (!fp) throw std::runtime_error("cannot open " + path + " for writing");
+/// libpng's write callback: appends to the std::string behind the io pointer.
+void png_append(png_structp png, png_bytep data, png_size_t n) {
+  static_cast<std::string*>(png_get_io_ptr(png))->append(reinterpret_cast<const char*>(data), n);
+}
+
+/// Encodes 8-bit sRGB as a PNG file.
+std::string encode_png(const Image& img) {
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
-  if (!info) throw std::runtime_error("libpng initialisation failed");
+  if (!png || !info) {
+    png_destroy_write_struct(&png, &info);
+    throw std::runtime_error("libpng could not start");
+  }
+  std::string out;
   std::vector<unsigned char> row(std::size_t(img.width) * 3);
   if (setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, &info);
-    throw std::runtime_error("libpng failed writing " + path);
+    throw std::runtime_error("libpng failed");
   }
-  png_init_io(png, fp.get());
+  png_set_write_fn(png, &out, png_append, nullptr);
   png_set_IHDR(png, info, img.width, img.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
                PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
@@ -79,7 +110,7 @@ void write_png_file(const std::string& path, const Image& img) {
   }
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
-  if (std::fflush(fp.get()) != 0) throw std::runtime_error("write error on " + path);
+  return out;
 }
 
 }  // namespace
@@ -102,19 +133,9 @@ void write_image(const std::string& path, const Image& img) {
   std::string ext = extension(path);
   if (ext != ".exr" && ext != ".png")
     throw std::runtime_error("unsupported output format '" + ext + "' (use .exr or .png): " + path);
-  // Temporary name in the same directory, so the rename is atomic.
-  std::filesystem::path target(path);
-  std::filesystem::path tmp = target;
-  tmp += ".tmp-" + std::to_string(::getpid()) + ext;
   try {
-    if (ext == ".exr")
-      write_exr_file(tmp.string(), img);
-    else
-      write_png_file(tmp.string(), img);
-    std::filesystem::rename(tmp, target);
+    write_file_bytes(path, ext == ".exr" ? encode_exr(img) : encode_png(img));
   } catch (const std::exception& e) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
     throw std::runtime_error("cannot write " + path + ": " + e.what());
   }
 }

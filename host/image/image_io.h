@@ -17,8 +17,9 @@ struct Image {
 Image resolve(const std::vector<glm::vec4>& accum, int width, int height);
 
 /// \brief Writes \p image as OpenEXR (".exr": 32-bit float R, G, B) or PNG (".png": sRGB
-///        8-bit, values clamped to [0, 1]) by the extension of \p path. The file appears
-///        complete or not at all: data goes to a temporary file that is renamed into place.
+///        8-bit, values clamped to [0, 1]) by the extension of \p path, through
+///        write_file_bytes (util/files.h): a regular file appears complete or not at all, a
+///        FIFO or device gets the bytes directly.
 /// \throws std::runtime_error for an unknown extension or an I/O failure.
 void write_image(const std::string& path, const Image& image);
 

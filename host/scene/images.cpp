@@ -24,6 +24,7 @@
 
 #include "../../shaders/shared/layout.h"
 #include "scene/scene.h"
+#include "util/files.h"
 
 namespace basalt {
 namespace {
@@ -42,15 +43,12 @@ std::string lower_ext(const std::string& path) {
 
 // The whole file; a missing or unreadable file is an error naming it.
 std::vector<unsigned char> read_file(const std::string& path, const SourceLoc& loc) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) fail(loc, path, "no such file");
-  if (fs::is_directory(path, ec)) fail(loc, path, "is a directory");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail(loc, path, std::string("cannot open: ") + std::strerror(errno));
-  std::vector<unsigned char> data((std::istreambuf_iterator<char>(in)),
-                                  std::istreambuf_iterator<char>());
-  if (in.bad()) fail(loc, path, "read error");
-  return data;
+  try {
+    const std::string data = read_regular_file(path);
+    return std::vector<unsigned char>(data.begin(), data.end());
+  } catch (const FileError& e) {
+    fail(loc, path, e.what());
+  }
 }
 
 // The exact sRGB decoding curve (IEC 61966-2-1), in double.

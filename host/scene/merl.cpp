@@ -1,6 +1,8 @@
 // MERL regular half-angle BRDF tables (pbrt-v2 src/materials/measured.cpp format).
 #include "scene/merl.h"
 
+#include "util/files.h"
+
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -25,6 +27,7 @@ std::int32_t read_i32(const unsigned char* b) {
 
 MeasuredTable read_merl(const std::string& path) {
   static_assert(sizeof(double) == 8);
+  regular_file_size(path);  // a regular file only (util/files.h): no FIFO or device
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(std::string("cannot open: ") + std::strerror(errno));
   unsigned char head[12];

@@ -2,6 +2,8 @@
 // shared tables and the camera's minimum differentials.
 #include "scene/textures.h"
 
+#include "util/files.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -263,10 +265,12 @@ void read_volume(const ParamSet& ps, const SourceLoc& loc,
       throw SceneError(fp->loc, "volume texture \"" + t.name +
                                     "\" needs one file name in \"string filename\"");
     const std::string path = resolve ? resolve(fp->strings[0]) : fp->strings[0];
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SceneError(fp->loc, "cannot open volume file \"" + path + "\"");
-    std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
-                                     std::istreambuf_iterator<char>());
+    std::string bytes;
+    try {
+      bytes = read_regular_file(path);  // a regular file only: util/files.h
+    } catch (const FileError& e) {
+      throw SceneError(fp->loc, "cannot read volume file \"" + path + "\": " + e.what());
+    }
     if (bytes.size() != count * 4u)
       throw SceneError(fp->loc, "volume file \"" + path + "\" has " +
                                     std::to_string(bytes.size()) + " bytes; a " + shape +
@@ -274,9 +278,9 @@ void read_volume(const ParamSet& ps, const SourceLoc& loc,
                                     " little-endian float32)");
     t.voxels.resize(std::size_t(count));
     for (std::size_t i = 0; i < t.voxels.size(); ++i) {
-      const std::uint32_t u = std::uint32_t(bytes[4 * i]) | (std::uint32_t(bytes[4 * i + 1]) << 8) |
-                              (std::uint32_t(bytes[4 * i + 2]) << 16) |
-                              (std::uint32_t(bytes[4 * i + 3]) << 24);
+      const std::uint32_t u = std::uint32_t((unsigned char)bytes[4 * i]) | (std::uint32_t((unsigned char)bytes[4 * i + 1]) << 8) |
+                              (std::uint32_t((unsigned char)bytes[4 * i + 2]) << 16) |
+                              (std::uint32_t((unsigned char)bytes[4 * i + 3]) << 24);
       float f;
       std::memcpy(&f, &u, 4);
       if (!std::isfinite(f))

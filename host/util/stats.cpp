@@ -2,14 +2,13 @@
 #include "util/stats.h"
 
 #include <sys/resource.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <sstream>
 #include <stdexcept>
+
+#include "util/files.h"
 
 namespace basalt {
 
@@ -78,19 +77,11 @@ std::uint64_t peak_rss_bytes() {
 }
 
 void write_file_atomic(const std::string& path, const std::string& text) {
-  std::filesystem::path tmp = path;
-  tmp += ".tmp-" + std::to_string(::getpid());
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    f << text;
-    f.flush();
-    if (!f) {
-      std::error_code ec;
-      std::filesystem::remove(tmp, ec);
-      throw std::runtime_error("cannot write " + path);
-    }
+  try {
+    write_file_bytes(path, text);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("cannot write " + path + ": " + e.what());
   }
-  std::filesystem::rename(tmp, path);
 }
 
 std::string format_number(double v) {

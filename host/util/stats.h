@@ -24,7 +24,7 @@ struct RenderStats {
 std::string to_json(const RenderStats& stats);
 /// \brief Peak resident set size of this process, in bytes.
 std::uint64_t peak_rss_bytes();
-/// \brief Writes \p text to \p path through a temporary file renamed into place.
+/// \brief Writes \p text to \p path as write_file_bytes does (util/files.h).
 void write_file_atomic(const std::string& path, const std::string& text);
 
 /// \brief A finite number as text with 9 significant digits (JSON and CSV output).

@@ -495,7 +495,8 @@ TEST(ImageTexture, BadFilesAreLocatedErrorsNamingTheFile) {
   const fs::path d = temp_dir();
   // missing
   EXPECT_EQ(error_of(texture_line("nope.png")),
-            "t.pbrt:2:35: error: image file \"" + (d / "nope.png").string() + "\": no such file");
+            "t.pbrt:2:35: error: image file \"" + (d / "nope.png").string() +
+                "\": No such file or directory");
   // unreadable (a directory)
   fs::create_directories(d / "dir.png");
   EXPECT_EQ(error_of(texture_line("dir.png")),

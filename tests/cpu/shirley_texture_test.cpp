@@ -679,7 +679,8 @@ TEST(ShirleyErrors, LocatedMessages) {
   const std::string missing = (temp_dir() / "missing.raw").string();
   EXPECT_EQ(error_of("Texture \"x\" \"float\" \"volume\" \"integer resolution\" [ 2 2 2 ]"
                      " \"string filename\" \"missing.raw\"\n"),
-            "t.pbrt:7:61: error: cannot open volume file \"" + missing + "\"");
+            "t.pbrt:7:61: error: cannot read volume file \"" + missing +
+                "\": No such file or directory");
   {
     std::ofstream o(temp_dir() / "short.raw", std::ios::binary);
     o.write("\0\0\0\0\0\0\0\0\0\0", 10);
@@ -697,7 +698,7 @@ TEST(ShirleyErrors, LocatedMessages) {
             "t.pbrt:7:1: error: interpimage texture \"x\" needs a \"string filename\" parameter");
   const std::string nope = (temp_dir() / "nope.png").string();
   EXPECT_EQ(error_of("Texture \"x\" \"float\" \"interpimage\" \"string filename\" \"nope.png\"\n"),
-            "t.pbrt:7:35: error: image file \"" + nope + "\": no such file");
+            "t.pbrt:7:35: error: image file \"" + nope + "\": No such file or directory");
   // Good inputs parse.
   EXPECT_EQ(error_of("Texture \"x\" \"float\" \"volume\" \"integer resolution\" [ 1 1 2 ]"
                      " \"float values\" [ 1 2 ]\n"),
