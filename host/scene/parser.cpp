@@ -20,6 +20,7 @@
 #include "scene/scene.h"
 #include "scene/textures.h"
 #include "scene/tokenizer.h"
+#include "util/files.h"
 
 namespace basalt {
 
@@ -82,24 +83,19 @@ std::string read_scene_file(const std::string& path, const SourceLoc& where, con
   if (path.size() > 3 && path.compare(path.size() - 3, 3, ".gz") == 0)
     throw SceneError(
         where, std::string("gzip-compressed scene files are not supported yet: \"") + path + "\"");
-  std::error_code ec;
-  if (fs::is_directory(path, ec))
-    throw SceneError(where,
-                     std::string("cannot read ") + kind + " \"" + path + "\": is a directory");
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw SceneError(
-        where, std::string("cannot open ") + kind + " \"" + path + "\": " + std::strerror(errno));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) throw SceneError(where, std::string("cannot read ") + kind + " \"" + path + "\"");
-  return ss.str();
+  try {
+    return read_regular_file(path);
+  } catch (const FileError& e) {
+    throw SceneError(where, std::string("cannot read ") + kind + " \"" + path + "\": " + e.what());
+  }
 }
 
 class Parser {
  public:
-  Parser(std::string main_dir, MixMode mix_mode) : main_dir_(std::move(main_dir)) {
+  Parser(std::string main_dir, MixMode mix_mode, std::uint64_t max_table_bytes)
+      : main_dir_(std::move(main_dir)) {
     scene_.mix_mode = mix_mode;
+    scene_.max_table_bytes = max_table_bytes;
   }
 
   // Parses the text of one file; dir resolves its relative paths.
@@ -541,6 +537,20 @@ void Parser::film(Tokenizer& tok, const Token& d) {
   f.xres = positive_int(ps, "xresolution", 1280, d.loc);
   f.yres = positive_int(ps, "yresolution", 720, d.loc);
   f.filename = ps.get_string("filename", "pbrt.exr");
+  // The film's accumulation table (16 bytes a pixel) must fit before anything is allocated
+  // (issue 11, defects 4 and 6).
+  for (const char* side : {"xresolution", "yresolution"})
+    if ((side[0] == 'x' ? f.xres : f.yres) > kMaxFilmSide)
+      throw SceneError(ps.loc_of(side, d.loc), std::string(side) + " " +
+                                                   std::to_string(side[0] == 'x' ? f.xres : f.yres) +
+                                                   " exceeds basalt's limit of 2^20 pixels");
+  if (const std::uint64_t bytes = std::uint64_t(f.xres) * std::uint64_t(f.yres) * 16u;
+      bytes > scene_.max_table_bytes)
+    throw SceneError(ps.loc_of("xresolution", d.loc),
+                     "a " + std::to_string(f.xres) + " x " + std::to_string(f.yres) +
+                         " film needs " + std::to_string(bytes) +
+                         " bytes of accumulation table, more than the " +
+                         std::to_string(scene_.max_table_bytes) + " bytes the renderer takes");
   // pbrt-v4 RGBFilm clamps each sample's rgb to this maximum component; basalt does not, so
   // a finite value is refused rather than ignored (the default is infinite).
   if (const Param* mc = ps.lookup("maxcomponentvalue", {"float"});
@@ -817,7 +827,7 @@ void Parser::shape(Tokenizer& tok, const Token& d, const std::string& dir) {
       throw SceneError(d.loc, "gzip-compressed PLY files are not supported yet: \"" + path + "\"");
     std::vector<std::string> ply_warnings;
     try {
-      s.mesh = load_ply(path, &ply_warnings);
+      s.mesh = load_ply(path, &ply_warnings, scene_.max_table_bytes);
     } catch (const SceneError& e) {
       throw SceneError(d.loc, "PLY file \"" + path + "\": " + e.message);
     }
@@ -868,6 +878,16 @@ static glm::dvec3 equal_area_square_to_sphere_d(double px, double py) {
   const double z = std::copysign(1.0 - r * r, signed_distance);
   const double s = r * std::sqrt(std::max(0.0, 2.0 - r * r));
   return {std::copysign(std::cos(phi), u) * s, std::copysign(std::sin(phi), v) * s, z};
+}
+
+// A light's "scale": finite and not negative, as its "I" and "L" must be (issue 11, defect 7).
+float light_scale(const ParamSet& ps, const Token& d) {
+  const float scale = ps.get_float("scale", 1.0f);
+  if (!std::isfinite(scale) || scale < 0.0f)
+    throw SceneError(ps.loc_of("scale", d.loc),
+                     "light \"scale\" must be finite and not negative, got " +
+                         std::to_string(scale));
+  return scale;
 }
 
 // LightSource "infinite" with "filename" (pbrt-v4 Light::Create "infinite" and the
@@ -1031,7 +1051,7 @@ void Parser::light_source(Tokenizer& tok, const Token& d, const std::string& dir
           p->loc, "parameter \"" + p->name + "\" (photometric light scaling) is not supported yet");
   Light l;
   l.loc = d.loc;
-  float scale = ps.get_float("scale", 1.0f);
+  float scale = light_scale(ps, d);
   if (type == "point") {
     // pbrt-v4 PointLight::Create: renderFromLight * Translate(from).
     l.kind = Light::Kind::Point;
@@ -1103,7 +1123,7 @@ void Parser::area_light_source(Tokenizer& tok, const Token& d) {
     throw SceneError(p->loc,
                      "parameter \"power\" (photometric light scaling) is not supported yet");
   AreaLight a;
-  float scale = ps.get_float("scale", 1.0f);
+  const float scale = light_scale(ps, d);
   a.L = ps.get_spectrum("L", SpectrumUse::Illuminant, &scene_.warnings).value_or(glm::vec3(1)) *
         scale;
   a.twosided = ps.get_bool("twosided", false);
@@ -1194,17 +1214,18 @@ Scene Parser::finish(const SourceLoc& eof) {
 
 }  // namespace
 
-Scene load_scene(const std::string& path, MixMode mix_mode) {
+Scene load_scene(const std::string& path, MixMode mix_mode, std::uint64_t max_table_bytes) {
   std::string dir = fs::path(path).parent_path().string();
-  Parser parser(dir, mix_mode);
+  Parser parser(dir, mix_mode, max_table_bytes);
   Tokenizer tok(read_scene_file(path, SourceLoc{path, 0, 0}, "scene file"), path);
   parser.parse(tok, dir);
   return parser.finish(tok.end_loc());
 }
 
 Scene load_scene_from_string(const std::string& text, const std::string& name,
-                             const std::string& base_dir, MixMode mix_mode) {
-  Parser parser(base_dir, mix_mode);
+                             const std::string& base_dir, MixMode mix_mode,
+                             std::uint64_t max_table_bytes) {
+  Parser parser(base_dir, mix_mode, max_table_bytes);
   Tokenizer tok(text, name);
   parser.parse(tok, base_dir);
   return parser.finish(tok.end_loc());

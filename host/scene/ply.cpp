@@ -2,7 +2,12 @@
 // header, ascii and binary bodies, vertex/face/tristrips elements.
 #include "scene/ply.h"
 
+#include "../../shaders/shared/layout.h"
+#include "util/files.h"
+
 #include <cctype>
+#include <cmath>
+#include <limits>
 #include <cerrno>
 #include <charconv>
 #include <cstdint>
@@ -51,6 +56,30 @@ bool parse_scalar(const std::string& s, Scalar* out) {
       return true;
     }
   return false;
+}
+
+// The smallest and largest value an ascii file may give an integer type (floats: any double).
+double scalar_min(Scalar t) {
+  switch (t) {
+    case Scalar::I8: return -128.0;
+    case Scalar::I16: return -32768.0;
+    case Scalar::I32: return -2147483648.0;
+    case Scalar::U8:
+    case Scalar::U16:
+    case Scalar::U32: return -1.0;  // -1: a strip restart, in files that declare uint lists
+    default: return -std::numeric_limits<double>::max();
+  }
+}
+double scalar_max(Scalar t) {
+  switch (t) {
+    case Scalar::I8: return 127.0;
+    case Scalar::U8: return 255.0;
+    case Scalar::I16: return 32767.0;
+    case Scalar::U16: return 65535.0;
+    case Scalar::I32: return 2147483647.0;
+    case Scalar::U32: return 4294967295.0;
+    default: return std::numeric_limits<double>::max();
+  }
 }
 
 std::size_t scalar_size(Scalar t) {
@@ -172,9 +201,12 @@ class BodyReader {
     if (ec != std::errc() || ptr != last)
       fail(path_, "malformed number '" + data_.substr(start, pos_ - start) + "' in element '" +
                       (elem_ ? elem_->name : std::string("?")) + "'");
-    if (t != Scalar::F32 && t != Scalar::F64 && v != double(std::int64_t(v)))
-      fail(path_, "non-integer value '" + data_.substr(start, pos_ - start) +
-                      "' for an integer property in element '" +
+    // Range first, then integrality: casting a value outside int64 (1e30, nan) is undefined
+    // behaviour (issue 11, defect 9).
+    if (t != Scalar::F32 && t != Scalar::F64 &&
+        (!(v >= scalar_min(t) && v <= scalar_max(t)) || v != std::trunc(v)))
+      fail(path_, "value '" + data_.substr(start, pos_ - start) +
+                      "' is not an integer in the range of its type, for a property of element '" +
                       (elem_ ? elem_->name : std::string("?")) + "'");
     return v;
   }
@@ -187,16 +219,13 @@ class BodyReader {
   std::size_t item_ = 0;
 };
 
-// Reads the whole file, refusing directories and reporting the system's reason on failure.
+// Reads the whole file: a regular file only (util/files.h), with the system's reason on failure.
 std::string read_file(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) fail(path, "cannot read PLY file: is a directory");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, std::string("cannot open PLY file: ") + std::strerror(errno));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) fail(path, "cannot read PLY file");
-  return ss.str();
+  try {
+    return read_regular_file(path);
+  } catch (const FileError& e) {
+    fail(path, std::string("cannot read PLY file: ") + e.what());
+  }
 }
 
 // Index of the first property of e called one of names, or -1.
@@ -209,7 +238,8 @@ int find_prop(const Element& e, std::initializer_list<const char*> names) {
 
 }  // namespace
 
-TriangleMesh load_ply(const std::string& path, std::vector<std::string>* warnings) {
+TriangleMesh load_ply(const std::string& path, std::vector<std::string>* warnings,
+                      std::uint64_t max_table_bytes) {
   const std::string data = read_file(path);
 
   // ---- header -------------------------------------------------------------------------
@@ -285,6 +315,30 @@ TriangleMesh load_ply(const std::string& path, std::vector<std::string>* warning
   }
   if (!have_end) fail(path, "truncated PLY file: no end_header");
   if (!have_format) fail(path, "malformed PLY header: no format line");
+
+  // Counts against the file size and the table limit, before anything is read or allocated
+  // (issue 11, defects 3 and 10): every value takes at least its scalar's bytes (binary) or a
+  // character and a separator (ascii).
+  {
+    double least = 0.0;
+    for (const Element& e : elements) {
+      double per = 0.0;
+      for (const Property& p : e.props)
+        per += format == Format::Ascii ? 2.0 : double(scalar_size(p.is_list ? p.count_type : p.type));
+      least += per * double(e.count);
+      const std::size_t entry = e.name == "vertex" ? sizeof(gpu::Vertex)
+                                : e.name == "face" ? sizeof(gpu::Triangle)
+                                                   : 0;
+      if (entry && double(e.count) * double(entry) > double(max_table_bytes))
+        fail(path, "the header declares " + std::to_string(e.count) + " " + e.name +
+                       " elements; their table needs more than the " +
+                       std::to_string(max_table_bytes) + " bytes the renderer takes");
+    }
+    if (least > double(data.size() - pos) + 1.0)
+      fail(path, "truncated PLY file: the header's element counts need at least " +
+                     std::to_string(std::uint64_t(std::min(least, 1e19))) +
+                     " bytes of data, the file has " + std::to_string(data.size() - pos));
+  }
 
   // ---- body ---------------------------------------------------------------------------
   TriangleMesh mesh;
@@ -394,7 +448,8 @@ TriangleMesh load_ply(const std::string& path, std::vector<std::string>* warning
         }
       }
     } else {
-      // Any other element: read and drop its values.
+      // Any other element: read and drop its values (none to read without properties).
+      if (e.props.empty()) continue;
       for (std::size_t i = 0; i < e.count; ++i) {
         in.set_context(&e, i);
         for (const Property& p : e.props) {

@@ -15,8 +15,12 @@ namespace basalt {
 /// triangle k of a strip is (k, k+1, k+2) with every odd one's first two vertices swapped to keep
 /// the winding, and triangles repeating a vertex are dropped). Other elements are skipped.
 /// \param warnings receives notes on skipped faces, without a location prefix (may be null).
+/// \param max_table_bytes the largest vertex or triangle table the renderer takes: a header
+///        declaring more vertices or faces is refused before the body is read.
 /// \throws SceneError whose location is the file (no line) for a missing, unreadable, malformed
-///         or truncated file, or an index out of range.
-TriangleMesh load_ply(const std::string& path, std::vector<std::string>* warnings = nullptr);
+///         or truncated file (element counts are checked against the file size first), a value
+///         out of its type's range, or an index out of range.
+TriangleMesh load_ply(const std::string& path, std::vector<std::string>* warnings = nullptr,
+                      std::uint64_t max_table_bytes = kMaxTableBytes);
 
 }  // namespace basalt

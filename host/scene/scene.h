@@ -211,6 +211,13 @@ struct Light {
   SourceLoc loc;
 };
 
+/// Largest table (film accumulation, triangles, vertices, ...) without a device limit, in
+/// bytes: 4 GiB, what 32-bit indices address. A Vulkan render passes its device's
+/// maxStorageBufferRange instead (128 MiB on lavapipe, the minimum Vulkan guarantees).
+constexpr std::uint64_t kMaxTableBytes = std::uint64_t(1) << 32;
+/// Largest film side in pixels.
+constexpr int kMaxFilmSide = 1 << 20;
+
 struct Scene {
   Camera camera;
   Film film;
@@ -228,17 +235,24 @@ struct Scene {
   float displacement_edge_scale = 1.0f;    // Option "displacementedgescale" (> 0)
   int bvh_bins = 32, bvh_max_leaf = 8;     // BVH build quality (--bvh-bins, --bvh-leaf)
   MixMode mix_mode = MixMode::Auto;     // set by the caller (--mix) before build_tables
+  // The largest table the renderer takes, in bytes: the Vulkan device's maxStorageBufferRange
+  // (given to load_scene), else kMaxTableBytes. The film, PLY headers and the triangle and
+  // vertex tables are checked against it before anything of that size is allocated.
+  std::uint64_t max_table_bytes = kMaxTableBytes;
   std::vector<std::string> warnings;  // "file:line:column: warning: ..."
 };
 
 /// \brief Parses a pbrt-v4 scene file (Include/Import resolved relative to each file).
+/// \p max_table_bytes (Scene::max_table_bytes) bounds the film and the geometry tables.
 /// \p mix_mode (stored in Scene::mix_mode) decides how mix materials render; the materials
 /// are checked for it (e.g. a weighted mix of more than MAX_LOBES lobes is an error).
 /// \throws SceneError with the location of the first problem.
-Scene load_scene(const std::string& path, MixMode mix_mode = MixMode::Auto);
+Scene load_scene(const std::string& path, MixMode mix_mode = MixMode::Auto,
+                 std::uint64_t max_table_bytes = kMaxTableBytes);
 /// \brief Parses scene text; \p name is used in messages, \p base_dir resolves relative paths.
 Scene load_scene_from_string(const std::string& text, const std::string& name,
                              const std::string& base_dir = ".",
-                             MixMode mix_mode = MixMode::Auto);
+                             MixMode mix_mode = MixMode::Auto,
+                             std::uint64_t max_table_bytes = kMaxTableBytes);
 
 }  // namespace basalt

@@ -600,6 +600,14 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
       if (i >= tm.P.size()) throw SceneError(shape.loc, "vertex index out of range");
     if (t.vertices.size() + tm.P.size() >= INVALID_INDEX)
       throw SceneError(shape.loc, "too many vertices");
+    // The renderer's table limit (Scene::max_table_bytes), checked before the BVH is built
+    // (issue 11, defect 10): vertices now, triangles (at most a third of the indices) too.
+    if ((t.vertices.size() + tm.P.size()) * sizeof(gpu::Vertex) > scene.max_table_bytes ||
+        (t.triangles.size() + tm.indices.size() / 3) * sizeof(gpu::Triangle) >
+            scene.max_table_bytes)
+      throw SceneError(shape.loc, "the scene's vertex or triangle table would need more than the " +
+                                      std::to_string(scene.max_table_bytes) +
+                                      " bytes the renderer takes");
 
     const glm::mat4& m = shape.world_from_object;
     const glm::mat3 linear(m);
