@@ -10,12 +10,16 @@
 #include <optional>
 #include <string>
 
+#include <unistd.h>
+
+#include "basalt_version.h"  // generated at build time (cmake/version.cmake)
 #include "cpu/render.h"
 #include "image/image_io.h"
 #include "scene/samplers.h"
 #include "scene/scene.h"
 #include "scene/tables.h"
 #include "util/cli_options.h"
+#include "util/files.h"
 #include "util/progress.h"
 #include "scene/textures.h"
 #include "study/study.h"
@@ -61,7 +65,12 @@ int run(const Options& opt) {
   basalt::MixMode mix = opt.mix == "stochastic" ? basalt::MixMode::Stochastic
                         : opt.mix == "weighted" ? basalt::MixMode::Weighted
                                                 : basalt::MixMode::Auto;
-  basalt::Scene scene = basalt::load_scene(opt.scene, mix);
+  // The Vulkan device first: its maxStorageBufferRange bounds the film and the geometry tables,
+  // checked while parsing, before anything that large is allocated (issue 11, defects 4, 10).
+  std::optional<basalt::vkx::Context> ctx;
+  if (opt.device != "cpu") ctx.emplace(opt.device, basalt::vkx::Context::validation_requested());
+  basalt::Scene scene = basalt::load_scene(
+      opt.scene, mix, ctx ? ctx->info().max_storage_buffer_range : basalt::kMaxTableBytes);
   st.seconds_parse = since(t0);
   for (const auto& w : scene.warnings) std::cerr << w << "\n";
   if (opt.spp >= 0) scene.sampler.spp = opt.spp;
@@ -87,6 +96,15 @@ int run(const Options& opt) {
     if (!basalt::is_supported_image_path(output)) {
       std::cerr << (opt.outputs.empty() ? scene.film.loc.str() + ": error: " : "basalt: error: ")
                 << "output '" << output << "' must end in .exr or .png\n";
+      return kExitInput;
+    }
+  // Every output must be writable before the render starts (issue 11, defect 11).
+  std::vector<std::string> written = outputs;
+  if (!opt.stats.empty()) written.push_back(opt.stats);
+  for (const auto& path : written) try {
+      basalt::check_writable(path);
+    } catch (const basalt::FileError& e) {
+      std::cerr << "basalt: error: cannot write " << path << ": " << e.what() << "\n";
       return kExitInput;
     }
 
@@ -148,7 +166,8 @@ int run(const Options& opt) {
   st.spheres = tables.spheres.size();
   st.lights = tables.lights.size();
   const std::uint64_t total = std::uint64_t(st.width) * st.height * st.spp;
-  basalt::ProgressBar bar(total, opt.quiet);
+  // Drawn only on a terminal; its clock starts with the render, after pipeline creation.
+  basalt::ProgressBar bar(total, opt.quiet || !::isatty(STDERR_FILENO));
   auto progress = [&](double f) { bar.update(f); };
 
   std::vector<glm::vec4> accum;
@@ -158,28 +177,29 @@ int run(const Options& opt) {
     st.driver = "basalt CPU reference";
     accum.assign(std::size_t(st.width) * st.height, glm::vec4(0.0f));
     t0 = Clock::now();
+    bar.restart();
     st.rays = basalt::cpu::render(tables, 0, std::uint32_t(st.spp), accum, progress,
                                   &st.nonfinite_samples);
     st.seconds_render = since(t0);
   } else {
-    basalt::vkx::Context ctx(opt.device, basalt::vkx::Context::validation_requested());
-    st.device = ctx.info().name;
-    st.driver = ctx.info().driver;
+    st.device = ctx->info().name;
+    st.driver = ctx->info().driver;
     // --pipeline all: every feature's code compiled in (a time-only knob: same image).
     basalt::vkx::GpuRenderer gpu =
         opt.pipeline == "all"
-            ? basalt::vkx::GpuRenderer(ctx, tables, 0xffffffffu, basalt::vkx::ShaderVariant::full)
-            : basalt::vkx::GpuRenderer(ctx, tables);
+            ? basalt::vkx::GpuRenderer(*ctx, tables, 0xffffffffu, basalt::vkx::ShaderVariant::full)
+            : basalt::vkx::GpuRenderer(*ctx, tables);
     st.seconds_upload = gpu.seconds_upload;
     st.seconds_pipeline = gpu.seconds_pipeline;
     st.shader_variant = gpu.variant;
     t0 = Clock::now();
+    bar.restart();
     gpu.render(0, std::uint32_t(st.spp), progress);
     st.seconds_render = since(t0);
     st.rays = gpu.rays();
     st.nonfinite_samples = gpu.nonfinite_samples();
     accum = gpu.accum();
-    validation_errors = ctx.validation_errors();
+    validation_errors = ctx->validation_errors();
   }
   bar.finish();
   if (st.nonfinite_samples)
@@ -331,6 +351,8 @@ int main(int argc, char** argv) {
   app.add_option("--stats", opt.stats, "write render statistics as JSON to this file");
   app.add_flag("-q,--quiet", opt.quiet, "no progress bar or summary");
   app.add_flag("--list-devices", list, "list Vulkan devices and exit");
+  app.set_version_flag("--version", std::string("basalt ") + BASALT_VERSION + " (commit " +
+                                        BASALT_GIT_COMMIT + ")");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -347,9 +369,12 @@ int main(int argc, char** argv) {
       std::cerr << app.help();
       return 2;
     }
+    basalt::install_cleanup_handlers();  // SIGINT/SIGTERM remove partial output files
     return run(opt);
   } catch (const basalt::SceneError& e) {
     std::cerr << e.what() << "\n";
+  } catch (const std::bad_alloc&) {
+    std::cerr << "basalt: error: out of memory\n";
   } catch (const std::exception& e) {
     std::cerr << "basalt: error: " << e.what() << "\n";
   }

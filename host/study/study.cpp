@@ -36,9 +36,7 @@
 
 extern char** environ;
 
-#ifndef BASALT_GIT_COMMIT
-#define BASALT_GIT_COMMIT "unknown"
-#endif
+#include "basalt_version.h"  // BASALT_GIT_COMMIT: generated at build time (cmake/version.cmake)
 #ifndef BASALT_SOURCE_DIR
 #define BASALT_SOURCE_DIR "."
 #endif

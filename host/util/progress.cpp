@@ -1,6 +1,7 @@
 // A progress bar on stderr for long renders: samples done, rate and time left.
 #include "util/progress.h"
 
+#include <algorithm>
 #include <cstdio>
 
 namespace basalt {
@@ -10,8 +11,11 @@ ProgressBar::ProgressBar(std::uint64_t total_samples, bool quiet)
   start_ = last_ = std::chrono::steady_clock::now();
 }
 
+void ProgressBar::restart() { start_ = last_ = std::chrono::steady_clock::now(); }
+
 void ProgressBar::update(double fraction) {
-  if (quiet_) return;
+  if (quiet_ || !(fraction >= 0.0)) return;  // NaN (an empty render) draws nothing
+  fraction = std::min(fraction, 1.0);
   auto now = std::chrono::steady_clock::now();
   double elapsed = std::chrono::duration<double>(now - start_).count();
   if (elapsed < 1.0) return;  // short renders show no bar

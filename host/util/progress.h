@@ -13,6 +13,9 @@ class ProgressBar {
   ProgressBar(std::uint64_t total_samples, bool quiet);
   /// \brief Reports the fraction of the render done (0..1); redraws at most 10 times a second.
   void update(double fraction);
+  /// \brief Starts the clock again (at the first sample, so that set-up is not in the
+  ///        rate or the time left).
+  void restart();
   /// \brief Ends the line if anything was drawn.
   void finish();
 
