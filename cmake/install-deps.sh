@@ -8,6 +8,7 @@ pkgs=(
   glslang-tools libglm-dev libopenexr-dev libpng-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev
   python3-matplotlib
+  clang libclang-rt-14-dev
 )
 missing=()
 for p in "${pkgs[@]}"; do

@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# The whole default test suite, as .ci/run runs it (README "Two commands"):
+#  1. build/ (Release, g++): every test but the `slow` and `stress` labels, with the Vulkan
+#     validation layer on (BASALT_VALIDATION=1 in each test's environment);
+#  2. build-san/ (clang, ASan + UBSan with float-cast-overflow, -DBASALT_SANITIZE=ON): the CPU
+#     suite and the fuzz regression inputs;
+#  3. a short libFuzzer pass over each harness (tools/fuzz.sh, BASALT_FUZZ_SECONDS each, 40 by
+#     default), its crashes failing the run.
+# Slow and stress tests: ctest --test-dir build -L slow (or -L stress; docs/hard-cases.md).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash cmake/setup.sh all
+ctest --test-dir build --output-on-failure -j2 -LE 'slow|stress'
+CC=clang CXX=clang++ cmake -S . -B build-san -DBASALT_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g" \
+  >/dev/null
+cmake --build build-san -j"$(nproc)"
+ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+  ctest --test-dir build-san --output-on-failure -j2 -LE 'slow|stress'
+bash tools/fuzz.sh "${BASALT_FUZZ_SECONDS:-40}"
