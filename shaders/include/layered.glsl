@@ -103,8 +103,9 @@ precise float layer_tr(float dz, vec3 w) {
   return exp(-abs(dz / w.z));
 }
 
-// pbrt-v4 HenyeyGreenstein(cos, g).
+// pbrt-v4 HenyeyGreenstein(cos, g), g clamped to [-0.99, 0.99] as there.
 precise float henyey_greenstein(float cos_t, float g) {
+  g = clamp(g, -0.99, 0.99);  // pbrt-v4 clamps here too: |g| -> 1 is a delta, not a lobe
   float denom = 1.0 + g * g + 2.0 * g * cos_t;
   return INV_4PI * (1.0 - g * g) / (denom * safe_sqrt(denom));
 }

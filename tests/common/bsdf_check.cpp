@@ -480,6 +480,12 @@ struct Gen {
   float uni(float a, float b) { return std::uniform_real_distribution<float>(a, b)(rng); }
   bool chance(double p) { return std::uniform_real_distribution<double>(0, 1)(rng) < p; }
   float log_uni(float a, float b) { return std::exp(uni(std::log(a), std::log(b))); }
+  /// A Henyey-Greenstein g: mostly in [-0.9, 0.9], 15 % at or near the ends of [-1, 1], which
+  /// pbrt-v4 clamps to [-0.99, 0.99] in every use (docs/hard-cases.md).
+  float phase_g() {
+    static const float kEnds[] = {-1.0f, -0.995f, 0.995f, 1.0f};
+    return chance(0.15) ? kEnds[std::uniform_int_distribution<int>(0, 3)(rng)] : uni(-0.9f, 0.9f);
+  }
   /// Roughness: 0, 1e-4, 1, or log-uniform in [1e-4, 1].
   float rough() {
     const float x = uni(0, 1);
@@ -557,7 +563,7 @@ std::uint32_t add_random_material(MaterialSet& set, std::uint32_t type, std::mt1
       auto [u, v] = g.uv();
       return set.add(coated_diffuse(
           g.rgb(), u, v, g.chance(0.1) ? 0.0f : g.log_uni(1e-4f, 1.0f), g.eta(),
-          g.chance(0.5) ? glm::vec3(0.0f) : g.rgb(), g.uni(-0.9f, 0.9f),
+          g.chance(0.5) ? glm::vec3(0.0f) : g.rgb(), g.phase_g(),
           std::uniform_int_distribution<std::uint32_t>(1, 10)(rng),
           std::uniform_int_distribution<std::uint32_t>(1, 3)(rng), g.flags()));
     }
@@ -565,7 +571,7 @@ std::uint32_t add_random_material(MaterialSet& set, std::uint32_t type, std::mt1
       auto [iu, iv] = g.uv();
       auto [u, v] = g.uv();
       gpu::Material m = coated_conductor(
-          iu, iv, g.chance(0.1) ? 0.0f : g.log_uni(1e-4f, 1.0f), g.eta(), g.uni(-0.9f, 0.9f),
+          iu, iv, g.chance(0.1) ? 0.0f : g.log_uni(1e-4f, 1.0f), g.eta(), g.phase_g(),
           g.chance(0.5) ? glm::vec3(0.0f) : g.rgb(), u, v,
           glm::vec3(g.uni(0.05f, 4), g.uni(0.05f, 4), g.uni(0.05f, 4)),
           glm::vec3(g.k(), g.k(), g.k()),

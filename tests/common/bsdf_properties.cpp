@@ -245,13 +245,24 @@ TEST_P(BsdfProperties, SampleConsistentWithEvalAndPdf) {
   // Disagreements are excused only where eval/pdf at the sampled wi are ill-conditioned in
   // float (the sample computes them from its half vector, eval from normalize(wo + wi)).
   const std::vector<unsigned> ill = unstable_fields(GetParam(), catalog_tables(), oq, orr, 2e-4f);
+  // ... or where the sample's own f and pdf are: a sampled microfacet normal nearly
+  // perpendicular to a grazing wo (wo.z ~ 1e-7) refracts to a wi from which the normal cannot
+  // be recovered in float, and a few ulps of wo or u move the sample's f by orders of
+  // magnitude (seen with clang's libm calls in the sanitizer build, not with g++'s).
+  std::vector<Query> sq;
+  std::vector<Result> sr;
+  for (std::size_t j : off) sq.push_back(qs[src[j]]), sr.push_back(rs[src[j]]);
+  const std::vector<unsigned> ill_sample =
+      unstable_fields(GetParam(), catalog_tables(), sq, sr, 2e-4f);
   int bad = 0, excused = 0;
   for (std::size_t k = 0; k < off.size(); ++k) {
     const std::size_t j = off[k];
     const Result& s = rs[src[j]];
     const Result& e = r2[j];
-    const bool f_ok = close(s.sf, e.f, 2e-4f, 1e-6f) || (ill[k] & kEval);
-    const bool p_ok = close(s.spdf, e.pdf, 2e-4f, 1e-6f) || (ill[k] & kPdf);
+    const bool f_ok = close(s.sf, e.f, 2e-4f, 1e-6f) || (ill[k] & kEval) ||
+                      (ill_sample[k] & kSampleF);
+    const bool p_ok = close(s.spdf, e.pdf, 2e-4f, 1e-6f) || (ill[k] & kPdf) ||
+                      (ill_sample[k] & kSamplePdf);
     if (f_ok && p_ok && s.pdf_at_sample == e.pdf) {
       ++excused;
       continue;

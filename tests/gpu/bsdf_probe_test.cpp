@@ -123,7 +123,7 @@ glm::vec3 effective_wi(const Query& q, glm::vec3 wi) {
 
 struct KindStats {
   std::size_t queries = 0, samples = 0, raw_mismatch = 0, excused_conditioning = 0,
-              excused_direction = 0,
+              excused_direction = 0, excused_tangent = 0,
               excused_measured = 0, stochastic = 0, failures = 0;
 };
 
@@ -158,6 +158,9 @@ Requery cpu_at_sampled_direction(const Workload& w, const SceneTables& t,
   r.answers = run(Side::Cpu, t, qs);
   return r;
 }
+
+/// Largest fraction of one kind's queries that the excusal rules may excuse, all rules together.
+constexpr double kMaxExcusedPerKind = 0.02;
 
 /// Runs a workload on both sides and checks agreement; prints per-kind statistics.
 void check_agreement(const Workload& w, double max_excused_fraction,
@@ -231,15 +234,20 @@ void check_agreement(const Workload& w, double max_excused_fraction,
     // Validity of a near-tangent sample: whether a sampled direction within 1e-3 of the
     // tangent plane is a sample at all depends on the sign of its tiny z (and on the light-leak
     // rule's side test), which the renderers' different rounding (GPU fma contraction) may
-    // flip; the sample itself carries a cosine of that size and so almost no weight.
+    // flip; the sample itself carries a cosine of that size and so almost no weight. Only the
+    // sample's fields are excused: eval and pdf at the query's wi must still agree.
     if ((d & kSampleFlags) && !(d & kStatic)) {
       const Result& c = cpu[i];
       const Result& g = gpu[i];
       const bool cpu_tangent = c.sampled() && std::fabs(c.swi.z) < 1e-3f;
       const bool gpu_tangent = g.sampled() && std::fabs(g.swi.z) < 1e-3f;
       if ((cpu_tangent || !c.sampled()) && (gpu_tangent || !g.sampled())) {
-        ++s.excused_conditioning;
-        continue;
+        d &= ~unsigned(kSampleFlags | kSampleF | kSamplePdf | kSampleWi | kSampleEta |
+                       kPdfAtSample);
+        if (d == 0) {
+          ++s.excused_tangent;
+          continue;
+        }
       }
     }
     if (at_cpu.index[j] != SIZE_MAX) {
@@ -281,15 +289,21 @@ void check_agreement(const Workload& w, double max_excused_fraction,
   for (auto& [kind, s] : stats) {
     failures += s.failures;
     std::printf("  %-22s queries %6zu samples %6zu mismatches %5zu (excused: ill-conditioned "
-                "%zu, same at the GPU's direction %zu, measured bin %zu; stochastic %zu; "
-                "failures %zu)\n",
+                "%zu, same at the GPU's direction %zu, tangent sample %zu, measured bin %zu; "
+                "stochastic %zu; failures %zu)\n",
                 type_name(kind).c_str(), s.queries, s.samples, s.raw_mismatch,
-                s.excused_conditioning, s.excused_direction, s.excused_measured, s.stochastic,
-                s.failures);
+                s.excused_conditioning, s.excused_direction, s.excused_tangent,
+                s.excused_measured, s.stochastic, s.failures);
     // Not vacuous: most queries of every kind must produce a sample.
     EXPECT_GT(double(s.samples), 0.2 * double(s.queries)) << type_name(kind) << ": few samples";
+    // Every excusal is bounded per kind (issue 11): at most kMaxExcusedPerKind of a kind's
+    // queries, whatever the rule (measured at seed 2024: at most 0.8 %, MEASURED bins).
+    const std::size_t kind_excused =
+        s.excused_conditioning + s.excused_direction + s.excused_tangent + s.excused_measured;
+    EXPECT_LE(double(kind_excused), kMaxExcusedPerKind * double(s.queries))
+        << type_name(kind) << ": " << kind_excused << " excused of " << s.queries;
     total += s.queries;
-    excused += s.excused_conditioning + s.excused_direction;
+    excused += s.excused_conditioning + s.excused_direction + s.excused_tangent;
     stochastic += s.stochastic;
     if (kind == gpu::MATERIAL_COATED_DIFFUSE || kind == gpu::MATERIAL_COATED_CONDUCTOR ||
         kind == gpu::MATERIAL_MIX || kind == gpu::MATERIAL_MIX_WEIGHTED)
