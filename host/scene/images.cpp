@@ -31,6 +31,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// Most floats one decoded image may have: what the texel tables hold (TEXEL_CHUNK_COUNT
+/// bindings of 2^TEXEL_CHUNK_SHIFT floats, layout.h), checked before decoding allocates.
+constexpr std::uint64_t kMaxImageTexels = std::uint64_t(TEXEL_CHUNK_COUNT) << TEXEL_CHUNK_SHIFT;
+
 [[noreturn]] void fail(const SourceLoc& loc, const std::string& path, const std::string& what) {
   throw SceneError(loc, "image file \"" + path + "\": " + what);
 }
@@ -223,6 +227,12 @@ bool decode_png(PngReader& r, PngRaw& out) {
     png_destroy_read_struct(&png, &info, nullptr);
     return false;
   }
+  if (double(w) * double(h) * out.channels > double(kMaxImageTexels)) {
+    std::snprintf(r.error, sizeof r.error, "the image is too large (%u x %u)", unsigned(w),
+                  unsigned(h));
+    png_destroy_read_struct(&png, &info, nullptr);
+    return false;
+  }
   const std::size_t rowbytes = png_get_rowbytes(png, info);
   out.bytes.resize(rowbytes * h);
   rows.resize(h);
@@ -289,6 +299,8 @@ DecodedImage read_exr(const std::string& path, const SourceLoc& loc) {
       else
         fail(loc, path, "the image has neither R, G and B channels nor a single channel");
     }
+    if (double(w) * double(h) * double(names.size()) > double(kMaxImageTexels))
+      fail(loc, path, "the image is too large (" + std::to_string(w) + " x " + std::to_string(h) + ")");
     bool all_half = true;
     for (const std::string& nm : names) all_half = all_half && cl.findChannel(nm)->type == Imf::HALF;
     DecodedImage img;
@@ -351,7 +363,8 @@ DecodedImage read_pfm(const std::string& path, const SourceLoc& loc) {
   }
   if (w < 0 || h < 0 || scale == 0.0) fail(loc, path, "corrupt PFM header");
   if (w == 0 || h == 0) fail(loc, path, "the image has zero size");
-  if (w > (1 << 16) || h > (1 << 16)) fail(loc, path, "the image is too large");
+  if (w > (1 << 16) || h > (1 << 16) || double(w) * h * nc > double(kMaxImageTexels))
+    fail(loc, path, "the image is too large");
   ++pos;  // the single whitespace byte after the scale
   const std::size_t n = std::size_t(w) * std::size_t(h) * std::size_t(nc);
   if (pos > file.size() || file.size() - pos < n * 4)

@@ -475,3 +475,30 @@ TEST(CpuBsdf, ProbeBsdf) {
   EXPECT_NEAR(o.f3.x, s.pdf, 1e-6f * s.pdf);  // multi-lobe non-specular: pdf = bsdf_pdf
 }
 
+
+// Henyey-Greenstein g at the ends of its legal range [-1, 1]: pbrt-v4 clamps g to
+// [-0.99, 0.99] in the phase function itself, so g = +-1 (a delta, whose density
+// (1 - g^2) / denom^1.5 is 0/0 backwards) evaluates as g = +-0.99, bit for bit, and finitely
+// (docs/hard-cases.md; the GPU side: BsdfProbe.GpuMatchesCpuEveryKind draws such g).
+TEST(CpuBsdf, PhaseFunctionClampsGAtTheEnds) {
+  for (float g : {1.0f, -1.0f}) {
+    std::vector<gpu::Material> ms;
+    for (float gg : {g, 0.99f * g})
+      ms.push_back(test::bsdf::coated_diffuse(glm::vec3(0.5f), 0.3f, 0.3f, 0.5f, 1.5f,
+                                              glm::vec3(0.8f), gg, 10, 4, 0));
+    const SceneTables t = tables_of(ms);
+    for (int i = 0; i < 64; ++i) {
+      const float a = 0.1f + 0.0125f * float(i);
+      const glm::vec3 wo = glm::normalize(glm::vec3(std::sin(a), 0.2f, std::cos(a)));
+      const glm::vec3 wi = glm::normalize(glm::vec3(-0.3f, std::cos(a), 0.4f + 0.5f * std::sin(a)));
+      glm::vec3 f[2];
+      for (int m = 0; m < 2; ++m) {
+        const Bsdf b = bsdf_of(t, std::uint32_t(m), wo);
+        f[m] = bsdf_eval(b, wo, wi, kUp, glm::uvec4(i, 1, 0, 7));
+        EXPECT_TRUE(std::isfinite(f[m].x) && f[m].x >= 0.0f) << "g " << g << " i " << i;
+      }
+      EXPECT_GT(f[0].x, 0.0f) << "g " << g << " i " << i;
+      EXPECT_EQ(f[0], f[1]) << "g " << g << " i " << i;
+    }
+  }
+}

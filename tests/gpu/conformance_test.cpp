@@ -1,8 +1,12 @@
 // CPU vs GPU image conformance: for every scene in scenes/, the shader and the CPU
-// reference render the same image (same seed and spp) to within float rounding.
+// reference render the same image (same seed and spp): every pixel within 1e-3 relative,
+// except in the few scenes where a path may take another branch on the two sides, whose
+// differing pixels are bounded per scene from the measured rate of such flips.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
+#include <map>
 
 #include "common/test_util.h"
 #include "image/image_io.h"
@@ -39,7 +43,32 @@ void dump(const std::string& name, const SceneTables& t, const std::vector<glm::
   write_image("conformance-failures/" + name + "-diff.exr", Image{w, h, diff});
 }
 
-/// Renders \p file on both sides at \p spp and checks 99.9% of pixels within 1e-3.
+/// Rate per path of a flip: a path that takes another branch on the two sides because some
+/// decision (a stochastic mix's hash of the hit point, the side of a bumped or normal-mapped
+/// shading normal, a portal's edge) was computed a few ulps apart, so that its pixel differs
+/// by more than 1e-3. Measured per scene as (share of differing pixels) / spp, the larger of
+/// the estimates at 2 spp and at the scene's own spp (lavapipe against the CPU reference, the
+/// scene's seed, the commit of issue 11). Scenes not listed have no differing pixel at either.
+const std::map<std::string, double> kFlipsPerPath = {
+    {"envmap-portal.pbrt", 1.3e-5},   // 16 spp: 99.9792 % agree; 2 spp: 100 %
+    {"material-zoo.pbrt", 1.3e-5},    // 2 spp: 99.9974 %; 16 spp: 99.9948 %
+    {"materials-mix.pbrt", 4.1e-5},   // 2 spp: 99.9965 %; 16 spp: 99.9340 % (materials-spec 4)
+    {"normalmap-sky.pbrt", 3.0e-5},   // 2 spp: 99.9940 %; 16 spp: 99.9820 %
+    {"normalmap.pbrt", 5.2e-5},       // 2 spp: 99.9896 %; 16 spp: 99.9870 %
+};
+
+/// Most pixels that may differ at \p spp among \p pixels: a pixel differs when any of its spp
+/// paths flips, so three times the expected count, and at least 3 pixels where flips occur;
+/// none elsewhere.
+std::size_t allowed_flips(const std::string& file, std::uint32_t spp, std::size_t pixels) {
+  const auto it = kFlipsPerPath.find(file);
+  if (it == kFlipsPerPath.end()) return 0;
+  return std::max<std::size_t>(3, std::size_t(std::ceil(3.0 * it->second * spp * double(pixels))));
+}
+
+/// Renders \p file on both sides at \p spp: the share of pixels beyond 1e-3 within the
+/// scene's allowance, and the image means within 1e-4 relative (flips are rare and symmetric:
+/// a bias in a few pixels would show here).
 void check_scene(const std::string& file, std::uint32_t spp) {
   SceneTables t = tables_from_file(source_path("scenes/" + file));
   auto cpu = render(Side::Cpu, t, spp);
@@ -48,9 +77,14 @@ void check_scene(const std::string& file, std::uint32_t spp) {
   ASSERT_TRUE(all_finite(gpu)) << "NaN or Inf in the GPU image";
   ASSERT_GT(mean(cpu), 0.0) << "black image";
   const double agree = agreeing_fraction(cpu, gpu, 1e-3f);
-  std::printf("  %s at %u spp: %.4f%% of pixels agree\n", file.c_str(), spp, agree * 100.0);
-  if (agree < 0.999) dump(file, t, cpu, gpu);
-  EXPECT_GE(agree, 0.999) << file << ": " << (1.0 - agree) * 100.0 << "% of pixels differ";
+  const std::size_t differ = std::size_t(std::lround((1.0 - agree) * double(cpu.size())));
+  const std::size_t allowed = allowed_flips(file, spp, cpu.size());
+  const double mean_rel = std::abs(mean(cpu) - mean(gpu)) / mean(cpu);
+  std::printf("  %s at %u spp: %.4f%% of pixels agree (%zu differ, %zu allowed); means %.2e apart\n",
+              file.c_str(), spp, agree * 100.0, differ, allowed, mean_rel);
+  if (differ > allowed) dump(file, t, cpu, gpu);
+  EXPECT_LE(differ, allowed) << file << ": " << differ << " pixels differ";
+  EXPECT_LE(mean_rel, 1e-4) << file << ": image means differ";
 }
 
 class Conformance : public ::testing::TestWithParam<std::string> {};
@@ -63,10 +97,8 @@ INSTANTIATE_TEST_SUITE_P(Scenes, Conformance, ::testing::ValuesIn(scene_files())
 
 class ConformanceFullSpp : public ::testing::TestWithParam<std::string> {};
 
-// The scene's default sample count (labelled slow by its name). Scenes with stochastic mixes
-// have the smallest margin: the mix choice hashes the hit point, which the two renderers may
-// compute a few ulps apart, so about 4e-5 of the paths flip material (docs/materials-spec.md
-// section 4): materials-mix agrees on 99.93% of its pixels at its 16 spp.
+// The scene's default sample count (labelled slow by its name), under the same per-scene
+// allowance scaled to the sample count.
 TEST_P(ConformanceFullSpp, SlowCpuMatchesGpuAtSceneSpp) {
   Scene scene = load_scene(source_path("scenes/" + GetParam()));
   check_scene(GetParam(), std::uint32_t(scene.sampler.spp));
