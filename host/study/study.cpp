@@ -928,8 +928,22 @@ int Study::run() {
   fs::create_directories(dir_ / "points");
   exe_ = self_exe();
   // Budget: the report gets the last fifth (at most 15 s: matplotlib draws 5 charts in 3-8 s
-  // on 2 busy cores); every child must end before that.
-  if (budgeted()) limit_ = opt_.budget - std::min(15.0, 0.2 * opt_.budget);
+  // on 2 busy cores), or more on a machine so loaded that importing matplotlib alone takes a
+  // quarter of that (the report costs about 4 imports: measured here, now, under the load the
+  // sweep will see); every child must end before that, and the report gets at most half.
+  if (budgeted()) {
+    double reserve = std::min(15.0, 0.2 * opt_.budget);
+    const auto t0 = Clock::now();
+    const ChildResult r = run_child(
+        {opt_.python, "-c", "import matplotlib; matplotlib.use('Agg'); import matplotlib.pyplot"},
+        "/dev/null", "/dev/null",
+        t0 + std::chrono::duration_cast<Clock::duration>(
+                 std::chrono::duration<double>(0.25 * opt_.budget)),
+        {});
+    if (r.exit_code == 0)
+      reserve = std::min(0.5 * opt_.budget, std::max(reserve, 4.0 * since(t0) + 2.0));
+    limit_ = opt_.budget - reserve;
+  }
 
   const std::string help = probe_help();
   table_ = knobs();
