@@ -147,13 +147,13 @@ Image read_exr(const std::string& path) {
   img.width = dw.max.x - dw.min.x + 1;
   img.height = dw.max.y - dw.min.y + 1;
   img.pixels.resize(std::size_t(img.width) * img.height);
-  char* base = reinterpret_cast<char*>(img.pixels.data()) -
-               (std::ptrdiff_t(dw.min.x) + std::ptrdiff_t(dw.min.y) * img.width) * sizeof(glm::vec3);
+  // Slice::Make applies the data window's origin in integer arithmetic (no pointer overflow).
+  float* base = reinterpret_cast<float*>(img.pixels.data());
   const size_t xs = sizeof(glm::vec3), ys = xs * img.width;
   Imf::FrameBuffer fb;
-  fb.insert("R", Imf::Slice(Imf::FLOAT, base + 0, xs, ys));
-  fb.insert("G", Imf::Slice(Imf::FLOAT, base + 4, xs, ys));
-  fb.insert("B", Imf::Slice(Imf::FLOAT, base + 8, xs, ys));
+  fb.insert("R", Imf::Slice::Make(Imf::FLOAT, base + 0, dw, xs, ys));
+  fb.insert("G", Imf::Slice::Make(Imf::FLOAT, base + 1, dw, xs, ys));
+  fb.insert("B", Imf::Slice::Make(Imf::FLOAT, base + 2, dw, xs, ys));
   file.setFrameBuffer(fb);
   file.readPixels(dw.min.y, dw.max.y);
   return img;

@@ -311,11 +311,13 @@ DecodedImage read_exr(const std::string& path, const SourceLoc& loc) {
     img.encoding.kind = ImageEncoding::Linear;
     img.texels.assign(std::size_t(w) * std::size_t(h) * names.size(), 0.0f);
     const std::size_t xs = sizeof(float) * names.size(), ys = xs * std::size_t(w);
-    char* base = reinterpret_cast<char*>(img.texels.data()) -
-                 std::ptrdiff_t(dw.min.x) * std::ptrdiff_t(xs) - std::ptrdiff_t(dw.min.y) * std::ptrdiff_t(ys);
+    // Slice::Make offsets the buffer by the data window in integer arithmetic: forming the
+    // pointer texels - origin ourselves overflowed for a window far from the origin (undefined
+    // behaviour; found by the fuzzer).
     Imf::FrameBuffer fb;
     for (std::size_t c = 0; c < names.size(); ++c)
-      fb.insert(names[c].c_str(), Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys));
+      fb.insert(names[c].c_str(),
+                Imf::Slice::Make(Imf::FLOAT, img.texels.data() + c, dw, xs, ys));
     file.setFrameBuffer(fb);
     file.readPixels(dw.min.y, dw.max.y);
     return img;

@@ -736,6 +736,9 @@ void Parser::option(Tokenizer& tok, const Token& d) {
   } else if (nn == "seed") {
     if (!v->is_integer_literal())
       throw SceneError(v->loc, "Option \"seed\" expects an integer, got " + v->describe());
+    // Range before the cast (a value beyond int is undefined behaviour; found by the fuzzer).
+    if (!(v->number >= -2147483648.0 && v->number <= 2147483647.0))
+      throw SceneError(v->loc, "Option \"seed\" does not fit a 32-bit integer");
     option_seed_ = int(v->number);
   } else if (std::find(std::begin(known), std::end(known), nn) != std::end(known)) {
     warn(d.loc, "Option \"" + name + "\" has no effect in basalt");

@@ -1479,6 +1479,10 @@ TEST(ParserErrors, SizesAndSignsAreCheckedWhereWritten) {
         << light << ": " << e;
   }
   EXPECT_EQ(error_of("WorldBegin\nLightSource \"point\" \"float scale\" 0\n"), "");
+  // An integer beyond int is an error before any cast (the fuzzer's first find in CI).
+  EXPECT_EQ(error_of("Option \"integer seed\" 55555555555555555555555555555\n" +
+                     std::string(kSphere)),
+            "t.pbrt:1:23: error: Option \"seed\" does not fit a 32-bit integer");
 }
 
 // Issue 11, defect 8: Include and plymesh take regular files only; a device or a FIFO is an
