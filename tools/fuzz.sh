@@ -6,6 +6,9 @@
 # and leaves the input in build-san/fuzz-artifacts/: copy it to tests/fuzz/regressions/NAME/ and
 # fix the cause (ctest replays those inputs in both builds).
 # Usage: tools/fuzz.sh [SECONDS per harness, default 300] [harness names, default all]
+# With BASALT_FUZZ_RUNS=N each harness instead runs exactly N inputs from random seed 1 and
+# the seed corpus alone: the same inputs on every machine (what CI runs, so that a failure is
+# a regression, not a new find of that day; finds come from timed runs).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-300}
@@ -23,6 +26,7 @@ cmake --build $B -j"$(nproc)" --target $(printf 'basalt_fuzz_%s ' "${harnesses[@
 seed() {  # harness, then files
   local dir=$B/fuzz-corpus/$1; shift
   rm -rf "$dir" && mkdir -p "$dir" "$B/fuzz-corpus/$(basename "$dir")-new"
+  [ -z "${BASALT_FUZZ_RUNS:-}" ] || rm -rf "$B/fuzz-corpus/$(basename "$dir")-new"/*
   for f in "$@"; do [ -f "$f" ] && cp "$f" "$dir/$(echo "$f" | tr / _)"; done
   # A regression input is a seed too.
   cp tests/fuzz/regressions/"$(basename "$dir")"/* "$dir"/ 2>/dev/null || true
@@ -43,10 +47,14 @@ printf '\002PF\n2 2\n-1.0\n' > $B/fuzz-corpus/image/tiny.pfm && head -c 48 /dev/
 mkdir -p $B/fuzz-artifacts
 status=0
 for h in "${harnesses[@]}"; do
-  echo "== fuzzing $h for $seconds s"
+  if [ -n "${BASALT_FUZZ_RUNS:-}" ]; then
+    budget=(-runs="$BASALT_FUZZ_RUNS" -seed=1); echo "== fuzzing $h: $BASALT_FUZZ_RUNS inputs, seed 1"
+  else
+    budget=(-max_total_time="$seconds"); echo "== fuzzing $h for $seconds s"
+  fi
   # -rss_limit_mb: the harnesses use lavapipe's 128 MiB table limit, far below it.
   if ! ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
-      $B/basalt_fuzz_$h -max_total_time="$seconds" -timeout=20 -rss_limit_mb=2560 \
+      $B/basalt_fuzz_$h "${budget[@]}" -timeout=20 -rss_limit_mb=2560 \
         -dict=tests/fuzz/$h.dict -artifact_prefix=$B/fuzz-artifacts/$h- -print_final_stats=1 \
         $B/fuzz-corpus/$h-new $B/fuzz-corpus/$h 2>$B/fuzz-$h.log; then
     echo "FUZZ FAILURE in $h: see $B/fuzz-$h.log and $B/fuzz-artifacts/"; tail -40 $B/fuzz-$h.log
