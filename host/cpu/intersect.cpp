@@ -133,7 +133,10 @@ inline PrimHit prim_hit(const SceneTables& s, std::uint32_t ref, const RayBox& r
 }
 
 /// Slab test (Kay & Kajiya 1986; pbrt-v4 6.1.2 with tFar scaled by 1 + 2 gamma(3)).
-/// Inclusive at tlimit so that equal-t candidates survive for the tie break.
+/// Inclusive at tlimit so that equal-t candidates survive for the tie break, and inclusive at an
+/// exit distance of 0 (as pbrt-v4's t0 > t1 test and the shader's enter <= exit): a ray lying
+/// in the plane of a box face, whose zero direction component's sign makes it leave at t = 0,
+/// still meets the primitives on that face.
 inline bool slab(const gpu::BvhNode& n, const RayBox& rb, float tlimit, float& tnear) {
   const glm::vec3 ta = (n.lo - rb.o) * rb.inv;
   const glm::vec3 tb = (n.hi - rb.o) * rb.inv;
@@ -141,7 +144,7 @@ inline bool slab(const gpu::BvhNode& n, const RayBox& rb, float tlimit, float& t
   const float t0 = std::max(tmin.x, std::max(tmin.y, tmin.z));
   const float t1 = std::min(tmax.x, std::min(tmax.y, tmax.z)) * SLAB_FAR_SCALE;
   tnear = t0;
-  return t0 <= t1 && t0 <= tlimit && t1 > 0.0f;
+  return t0 <= t1 && t0 <= tlimit && t1 >= 0.0f;
 }
 
 constexpr int STACK_SIZE = 64;

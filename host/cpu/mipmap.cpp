@@ -136,7 +136,10 @@ struct Lookup {
         }
       }
     }
-    return sum / sum_wts;
+    // Not in pbrt-v4 (0 / 0): an ellipse that covers no texel centre, which happens only at
+    // texel coordinates beyond float's integer precision (2^30, where int() clamps), gives 0,
+    // as a non-finite coordinate does.
+    return sum_wts > 0.0f ? sum / sum_wts : glm::vec3(0.0f);
   }
 };
 
@@ -204,6 +207,11 @@ glm::vec3 mipmap_filter(const SceneTables& s, const gpu::Texture& t, glm::vec2 s
     dst1 *= scale;
     shorter *= scale;
   }
+  // Not in pbrt-v4 (which converts an infinite level of detail to int): an ellipse whose
+  // length overflows float, before or after the eccentricity clamp (a footprint of finite but
+  // enormous differentials), reads the coarsest texel, as every footprint wider than the image
+  // does (EWA at a level >= the level count).
+  if (!std::isfinite(shorter)) return m.texel(n - 1, {0, 0});
   if (shorter == 0.0f) return m.bilerp(0, st);
   const float lod = std::max(0.0f, float(n - 1) + log2_pbrt(shorter));
   const float fl = std::floor(lod);

@@ -13,12 +13,15 @@
 //   coarsest-level texel) and averages r, g, b in Bilerp-based ones (bilinear, trilinear, EWA's
 //   zero-minor-axis case), as pbrt-v4 MIPMap::Bilerp<Float> does (spec 4.2).
 // - Guards where pbrt-v4 has undefined behaviour (never hit by finite, sane footprints):
-//   a NaN filter width selects level 0 (pbrt: int(floor(NaN))); a non-finite EWA lod keeps its
-//   fraction t = lod - floor(lod) but its integer level is clamped to the level count (both
-//   passes then read Texel(levels - 1, (0, 0))); an EWA bounding box that is not finite or
-//   reaches beyond +-2^30 texels is empty (result 0 / 0 = NaN); WRAP_OCTAHEDRAL clamps the
-//   remapped texel into the image (pbrt reads out of bounds for points more than one image
-//   width outside).
+//   a NaN filter width selects level 0 (pbrt: int(floor(NaN))); an EWA ellipse whose shorter
+//   axis is not finite after the eccentricity clamp (squared lengths or the clamp's scale
+//   overflowed: finite but enormous differentials) reads Texel(levels - 1, (0, 0)), what every
+//   footprint wider than the image reads (the CPU twin does the same; pbrt converts the
+//   infinite level of detail to int); the EWA level is clamped to the level count; an EWA
+//   bounding box that is not finite or reaches beyond +-2^30 texels is empty, and an EWA pass
+//   that gives no texel a weight returns 0 (pbrt: 0 / 0; the CPU twin does the same);
+//   WRAP_OCTAHEDRAL clamps the remapped texel into the image (pbrt reads out of bounds for
+//   points more than one image width outside).
 #ifndef BASALT_MIPMAP_GLSL
 #define BASALT_MIPMAP_GLSL
 
@@ -141,6 +144,9 @@ vec3 mipmap_filter(uint ti, vec2 st, vec2 dst0, vec2 dst1, bool want_float) {
       npass = 2;
       lt = level - float(ilevel);
     }
+  } else if (!(lx <= 3.40282347e38)) {
+    // An ellipse whose length overflowed (Spec assumptions): Texel(levels - 1, (0, 0)).
+    kind = MIPPASS_ORIGIN;
   } else if (lx != 0.0) {  // lx == 0: Bilerp(0, st)
     float lod = 0.0 < level ? level : 0.0;  // std::max<Float>(0, level): NaN gives 0
     float flod = floor(lod);
@@ -228,7 +234,7 @@ vec3 mipmap_filter(uint ti, vec2 st, vec2 dst0, vec2 dst1, bool want_float) {
         }
       }
     }
-    precise vec3 r = k == MIPPASS_EWA ? sum / sumw : sum;
+    precise vec3 r = k == MIPPASS_EWA ? (sumw > 0.0 ? sum / sumw : vec3(0.0)) : sum;
     // pbrt-v4 MIPMap::Bilerp<Float> of a 3-channel level: the average of the bilerped r, g, b.
     if (k == MIPPASS_BILERP && want_float && mip_levels[ml].channels == 3u) {
       precise float avg = (r.x + r.y + r.z) / 3.0;

@@ -126,9 +126,13 @@ float checker_d(float x) {
 float checker_bf(float x, float r) {
   precise float lo = x - r;
   precise float hi = x + r;
-  if (floor(lo) == floor(hi)) return checker_sign(x);
-  precise float v = (checker_d(hi) - 2.0 * checker_d(x) + checker_d(lo)) / (r * r);
-  return v;
+  precise float rr = r * r;
+  // A radius whose square is not a normal float samples the checker at x (as the CPU twin).
+  if (floor(lo) == floor(hi) || !(rr >= 1.17549435e-38)) return checker_sign(x);
+  precise float v = (checker_d(hi) - 2.0 * checker_d(x) + checker_d(lo)) / rr;
+  // Clamped to [-1, 1] (as the CPU twin; docs/textures-spec.md 8): the second difference
+  // cancels where r is a few ulps of x.
+  return v > 1.0 ? 1.0 : (v < -1.0 ? -1.0 : v);
 }
 
 // Weight of tex2 of checkerboard instruction ti (pbrt-v4 Checkerboard).
@@ -186,7 +190,10 @@ vec3 marble_color(int i) {
 // py = y of the scaled texture-space point, f = its fbm (computed by the caller).
 vec3 tex_marble(uint ti, float py, float f) {
   precise float m = py + textures[ti].param[0].z * f;
-  precise float u = 0.5 + 0.5 * sin_accurate(m);
+  // sin_accurate reduces exactly below 2^15 only and its polynomial overflows to NaN beyond
+  // ~1e18: there (bands that differ from the CPU's anyway, docs/textures-spec.md 8) the
+  // builtin sine.
+  precise float u = 0.5 + 0.5 * (abs(m) < 32768.0 ? sin_accurate(m) : sin(m));
   int first = min(int(floor(u * 6.0)), 5);
   precise float t = u * 6.0 - float(first);
   vec3 c0 = marble_color(first), c1 = marble_color(first + 1);

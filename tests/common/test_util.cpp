@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <memory>
+#include <thread>
 
 #include "cpu/probe.h"
 #include "cpu/render.h"
@@ -129,6 +130,43 @@ std::vector<gpu::ProbeOut> probe(Side side, const SceneTables& tables,
   EXPECT_EQ(ctx.validation_errors(), before) << "Vulkan validation errors";
   return out;
 }
+
+std::vector<gpu::ProbeOut> probe_cpu_threads(const SceneTables& tables,
+                                             const std::vector<gpu::ProbeIn>& queries,
+                                             unsigned threads) {
+  threads = std::max(1u, std::min<unsigned>(threads, unsigned(queries.size() / 1024 + 1)));
+  if (threads == 1) return cpu::probe(tables, queries);
+  std::vector<gpu::ProbeOut> out(queries.size());
+  const std::size_t chunk = (queries.size() + threads - 1) / threads;
+  auto work = [&](std::size_t b) {
+    const std::size_t e = std::min(queries.size(), b + chunk);
+    const std::vector<gpu::ProbeIn> in(queries.begin() + std::ptrdiff_t(b),
+                                       queries.begin() + std::ptrdiff_t(e));
+    const std::vector<gpu::ProbeOut> r = cpu::probe(tables, in);
+    std::copy(r.begin(), r.end(), out.begin() + std::ptrdiff_t(b));
+  };
+  std::vector<std::thread> pool;
+  for (unsigned k = 1; k < threads; ++k) pool.emplace_back(work, k * chunk);
+  work(0);
+  for (std::thread& t : pool) t.join();
+  return out;
+}
+
+ProbeRunner::ProbeRunner(const SceneTables& tables)
+    : gpu_(std::make_unique<vkx::GpuRenderer>(gpu_context(), tables, tables.features,
+                                              vkx::ShaderVariant::automatic, false)) {}
+
+ProbeRunner::~ProbeRunner() = default;
+
+std::vector<gpu::ProbeOut> ProbeRunner::run(const std::vector<gpu::ProbeIn>& queries) {
+  auto& ctx = gpu_context();
+  const std::size_t before = ctx.validation_errors();
+  auto out = gpu_->probe(queries);
+  EXPECT_EQ(ctx.validation_errors(), before) << "Vulkan validation errors";
+  return out;
+}
+
+void ProbeRunner::set_globals(const gpu::Globals& globals) { gpu_->set_globals(globals); }
 
 double agreeing_fraction(const std::vector<glm::vec3>& a, const std::vector<glm::vec3>& b,
                          float rel) {

@@ -2,6 +2,7 @@
 // either side, and statistics over images.
 #pragma once
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,10 @@
 #include "scene/scene.h"
 #include "scene/tables.h"
 #include "vk/context.h"
+
+namespace basalt::vkx {
+class GpuRenderer;
+}
 
 namespace basalt::test {
 
@@ -49,6 +54,31 @@ std::vector<glm::vec3> render(Side side, const SceneTables& tables, std::uint32_
 /// \brief Answers probe queries on either side.
 std::vector<gpu::ProbeOut> probe(Side side, const SceneTables& tables,
                                  const std::vector<gpu::ProbeIn>& queries);
+
+/// \brief Answers probe queries on the CPU over \p threads threads (contiguous chunks of the
+///        queries; basalt::cpu::probe only reads the tables, as the multithreaded CPU render does).
+std::vector<gpu::ProbeOut> probe_cpu_threads(const SceneTables& tables,
+                                             const std::vector<gpu::ProbeIn>& queries,
+                                             unsigned threads = 2);
+
+/// \brief A GPU probe that keeps its tables, pipeline and query buffers across calls: probe()
+///        above builds a new renderer (and lavapipe compiles the probe shader for seconds) on
+///        every call; many batches on one scene go through one runner instead. Every run
+///        asserts that the validation layer stayed silent.
+class ProbeRunner {
+ public:
+  explicit ProbeRunner(const SceneTables& tables);
+  ~ProbeRunner();
+  ProbeRunner(const ProbeRunner&) = delete;
+  ProbeRunner& operator=(const ProbeRunner&) = delete;
+  /// Runs the queries (one dispatch; at most 2^20 per call keeps the buffers in range).
+  std::vector<gpu::ProbeOut> run(const std::vector<gpu::ProbeIn>& queries);
+  /// Replaces the uploaded Globals (camera, seed, sampler: settings that live in Globals).
+  void set_globals(const gpu::Globals& globals);
+
+ private:
+  std::unique_ptr<vkx::GpuRenderer> gpu_;
+};
 
 /// Fraction of pixels whose every channel agrees within \p rel relative (plus 1e-6 absolute).
 double agreeing_fraction(const std::vector<glm::vec3>& a, const std::vector<glm::vec3>& b,
