@@ -1,7 +1,11 @@
 #!/usr/bin/env python3
 """Charts and report.md for `basalt study` (host/study/study.cpp writes study.json).
 
-Usage: study_report.py DIR/study.json
+Usage: study_report.py DIR/study.json [--seconds S]
+
+With --seconds (the time `basalt study --budget` leaves it), the charts are drawn most
+important first (the spp chart, then relMSE, then 1 - SSIM per device) and a chart that would
+not finish in time, judged by the slowest chart so far, is skipped and named in report.md.
 
 Writes beside study.json:
   chart-<device>.png       relMSE against render time, log-log, one panel per knob
@@ -16,6 +20,7 @@ import json
 import math
 import os
 import sys
+import time
 
 EXIT_NO_MATPLOTLIB = 3
 
@@ -253,17 +258,41 @@ def log_ticks(ax, ticker):
         axis.set_minor_locator(ticker.NullLocator())
 
 
-def draw_charts(study, outdir, plt, ticker):
-    """Writes the per-device charts and the spp chart; returns their file names."""
+class Deadline:
+    """When the charts must be done (None: no limit), and the slowest chart so far."""
+
+    def __init__(self, seconds):
+        self.end = None if seconds is None else time.monotonic() + seconds
+        self.slowest = 0.0
+        self.skipped = []
+
+    def allows(self, name):
+        """True if a chart like the slowest so far still fits; else records name as skipped."""
+        if self.end is None or time.monotonic() + self.slowest < self.end:
+            return True
+        self.skipped.append(name)
+        return False
+
+    def took(self, t0):
+        """Records a chart started at t0 (time.monotonic())."""
+        self.slowest = max(self.slowest, time.monotonic() - t0)
+
+
+def draw_charts(study, outdir, plt, ticker, deadline):
+    """Writes the spp chart and the per-device charts, in that order, as long as the deadline
+    allows; returns the names of the files written."""
     points = study["points"]
     knobs = [k for k in study["knobs"] if k["name"] != "spp" and k["available"] and k["selected"]]
-    files = []
-    for device in study["options"]["devices"]:
-        for metric, tag, label in (("rel_mse", "", "relMSE"),
-                                   ("ssim_error", "-ssim", "1 − SSIM")):
+    files = [draw_spp_chart(study, outdir, plt, ticker, deadline)]
+    for metric, tag, label in (("rel_mse", "", "relMSE"), ("ssim_error", "-ssim", "1 − SSIM")):
+        for device in study["options"]["devices"]:
             shown = [k for k in knobs if any(curve(points, device, k["name"]))]
             if not shown:
                 continue
+            chart = "chart-%s%s.png" % (device, tag)
+            if not deadline.allows(chart):
+                continue
+            t0 = time.monotonic()
             ncol = min(3, len(shown))
             nrow = math.ceil(len(shown) / ncol)
             fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 3.6 * nrow), squeeze=False)
@@ -314,11 +343,17 @@ def draw_charts(study, outdir, plt, ticker):
                                       study["options"]["seeds"]), fontsize=10)
             # Room for the title above the top row (tight_layout ignores suptitle).
             fig.tight_layout(rect=(0, 0, 1, 1 - 0.45 / (3.6 * nrow)))
-            name = "chart-%s%s.png" % (device, tag)
-            fig.savefig(os.path.join(outdir, name), dpi=110)
+            fig.savefig(os.path.join(outdir, chart), dpi=110)
             plt.close(fig)
-            files.append(name)
-    # The default curve against spp with the fit relMSE = a / spp + c.
+            files.append(chart)
+            deadline.took(t0)
+    return files
+
+
+def draw_spp_chart(study, outdir, plt, ticker, deadline):
+    """The default curve against spp with the fit relMSE = a / spp + c (always drawn)."""
+    points = study["points"]
+    t0 = time.monotonic()
     fig, ax = plt.subplots(figsize=(6, 4.2))
     for device in study["options"]["devices"]:
         c = [p for p in curve(points, device, "default") if finite(p["rel_mse_mean"])
@@ -351,12 +386,12 @@ def draw_charts(study, outdir, plt, ticker):
     fig.tight_layout()
     fig.savefig(os.path.join(outdir, "chart-spp.png"), dpi=110)
     plt.close(fig)
-    files.append("chart-spp.png")
-    return files
+    deadline.took(t0)
+    return "chart-spp.png"
 
 
-def write_report(study, outdir, charts):
-    """Writes report.md."""
+def write_report(study, outdir, charts, skipped=()):
+    """Writes report.md (skipped: charts left out for the time budget)."""
     points = study["points"]
     opt = study["options"]
     ref = study["reference"]
@@ -417,6 +452,8 @@ def write_report(study, outdir, charts):
                   ""]
     if charts is None:
         lines += ["**No charts**: matplotlib is missing (install python3-matplotlib).", ""]
+    if skipped:
+        lines += ["**Charts left out for the time budget**: %s." % ", ".join(skipped), ""]
     # Samples per pixel.
     lines += ["## spp (samples per pixel, the x-axis of every curve)", ""]
     if charts:
@@ -546,12 +583,16 @@ def write_report(study, outdir, charts):
 
 def main():
     """Reads study.json and writes the charts and report.md beside it."""
-    if len(sys.argv) != 2:
+    seconds = None
+    if len(sys.argv) == 4 and sys.argv[2] == "--seconds":
+        seconds = float(sys.argv[3])
+    elif len(sys.argv) != 2:
         print(__doc__, file=sys.stderr)
         return 2
     with open(sys.argv[1], encoding="utf-8") as f:
         study = json.load(f)
     outdir = os.path.dirname(os.path.abspath(sys.argv[1]))
+    deadline = Deadline(seconds)  # before matplotlib's import, which is part of the time
     try:
         import matplotlib
         matplotlib.use("Agg")
@@ -562,8 +603,8 @@ def main():
         print("study_report.py: matplotlib is missing (install python3-matplotlib): "
               "report.md has no charts", file=sys.stderr)
         return EXIT_NO_MATPLOTLIB
-    charts = draw_charts(study, outdir, plt, ticker)
-    write_report(study, outdir, charts)
+    charts = draw_charts(study, outdir, plt, ticker, deadline)
+    write_report(study, outdir, charts, deadline.skipped)
     return 0
 
 

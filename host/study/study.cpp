@@ -882,7 +882,13 @@ int Study::report() {
     return 0;
   }
   const fs::path log = dir_ / "report.log";
-  ChildResult r = run_child({opt_.python, script, (dir_ / "study.json").string()},
+  // Under a budget the script gets the seconds left and leaves out the charts that would not
+  // fit (the spp chart first, then relMSE, then 1 - SSIM).
+  std::vector<std::string> args = {opt_.python, script, (dir_ / "study.json").string()};
+  if (budgeted())
+    args.insert(args.end(),
+                {"--seconds", std::to_string(std::max(1.0, opt_.budget - since(start_) - 1.0))});
+  ChildResult r = run_child(args,
                             (dir_ / "report.out").string(), log.string(), std::nullopt, {});
   std::error_code ec;
   fs::remove(dir_ / "report.out", ec);
