@@ -942,4 +942,47 @@ bool sane(const Result& r, std::string* why) {
   return bad == nullptr;
 }
 
+bool has_measured(const MaterialSet& set, std::uint32_t index) {
+  if (index >= set.materials.size()) return false;
+  const gpu::Material& m = set.materials[index];
+  if (m.type == gpu::MATERIAL_MEASURED) return true;
+  if (m.type == gpu::MATERIAL_MIX || m.type == gpu::MATERIAL_MIX_WEIGHTED)
+    return has_measured(set, m.aux0) || has_measured(set, m.aux1);
+  return false;
+}
+
+glm::vec3 refract_dir(glm::vec3 wo, float eta) {
+  const glm::dvec3 w(wo);
+  const double e = w.z > 0 ? 1.0 / eta : eta;
+  const double c = std::fabs(w.z), s2 = std::max(0.0, 1 - c * c) * e * e;
+  if (s2 >= 1) return glm::vec3(-wo.x, -wo.y, wo.z);
+  const double ct = std::sqrt(1 - s2);
+  glm::dvec3 t = -w * e;
+  t.z = w.z > 0 ? -ct : ct;
+  return glm::vec3(glm::normalize(t));
+}
+
+float material_eta(const gpu::Material& m) {
+  switch (m.type) {
+    case gpu::MATERIAL_DIELECTRIC: return m.value[gpu::SLOT_DIELECTRIC_ETA].x;
+    case gpu::MATERIAL_THIN_DIELECTRIC: return m.value[gpu::SLOT_THIN_ETA].x;
+    case gpu::MATERIAL_UBER: return m.value[gpu::SLOT_UBER_ETA].x;
+    case gpu::MATERIAL_COATED_DIFFUSE: return m.value[gpu::SLOT_CD_ETA].x;
+    case gpu::MATERIAL_COATED_CONDUCTOR: return m.value[gpu::SLOT_CC_IF_ETA].x;
+    default: return 1.5f;
+  }
+}
+
+glm::vec3 effective_wi(const Query& q, glm::vec3 wi) {
+  const double go = glm::dot(glm::dvec3(q.wo), glm::dvec3(q.ng));
+  const double gi = glm::dot(glm::dvec3(wi), glm::dvec3(q.ng));
+  const bool geo = go * gi > 0, sh = double(q.wo.z) * wi.z > 0;
+  return geo != sh ? glm::vec3(wi.x, wi.y, -wi.z) : wi;
+}
+
+bool tangent_or_no_sample(const Result& cpu, const Result& gpu) {
+  auto ok = [](const Result& r) { return !r.sampled() || std::fabs(r.swi.z) < 1e-3f; };
+  return ok(cpu) && ok(gpu);
+}
+
 }  // namespace basalt::test::bsdf

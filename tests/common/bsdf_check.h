@@ -228,4 +228,20 @@ bool close_direction(glm::vec3 a, glm::vec3 b, float rel = 1e-4f, float abs = 1e
 /// All outputs finite, values and pdfs non-negative; \p why receives the first violation.
 bool sane(const Result& r, std::string* why);
 
+// ---- query generators and conditioning shared by the BSDF probe and stress tests ------------
+
+/// \brief True if each side either sampled nothing or sampled a direction within 1e-3 of the
+///        tangent plane, where whether it is a sample at all depends on rounding.
+bool tangent_or_no_sample(const Result& cpu, const Result& gpu);
+/// \brief True if the material tree of \p index contains a MEASURED material.
+bool has_measured(const MaterialSet& set, std::uint32_t index);
+/// \brief Refraction of \p wo through the z = 0 plane with relative IOR \p eta (reflection on
+///        TIR), in double.
+glm::vec3 refract_dir(glm::vec3 wo, float eta);
+/// \brief eta of a material, for the "near refraction" wi generators (1.5 without one).
+float material_eta(const gpu::Material& m);
+/// \brief wi as the BSDF evaluates it (materials-spec 1.2: wi.z negated when the geometric and
+///        the shading decisions disagree).
+glm::vec3 effective_wi(const Query& q, glm::vec3 wi);
+
 }  // namespace basalt::test::bsdf

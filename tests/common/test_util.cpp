@@ -228,4 +228,53 @@ LineFit fit_line(const std::vector<double>& x, const std::vector<double>& y) {
   return f;
 }
 
+float env_probe_diff(const gpu::ProbeOut& a, const gpu::ProbeOut& b) {
+  auto rel = [](float x, float y) {
+    return std::fabs(x - y) / std::max(1e-2f, std::max(std::fabs(x), std::fabs(y)));
+  };
+  float d = 0.0f;
+  for (int c = 0; c < 4; ++c) {
+    d = std::max(d, rel(a.f0[c], b.f0[c]));
+    d = std::max(d, rel(a.f2[c], b.f2[c]));
+  }
+  d = std::max(d, rel(a.f1.w, b.f1.w));
+  d = std::max(d, rel(a.f3.x, b.f3.x));
+  d = std::max(d, 10.0f * glm::length(glm::vec3(a.f1) - glm::vec3(b.f1)));  // 1e-5 -> 1e-4
+  return std::isnan(d) ? INFINITY : d;
+}
+
+Scene one_material_scene() {
+  Scene s;
+  s.film.xres = s.film.yres = 8;
+  Material m;
+  m.type = "diffuse";
+  m.params["reflectance"] = MaterialParam{{0.5f, 0.5f, 0.5f}, "", {}};
+  s.materials.push_back(m);
+  return s;
+}
+
+Image sky_map(int w, int h) {
+  Image im{w, h, {}};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      glm::vec3 c(0.2f + 0.6f * float(y) / float(h - 1), 0.3f + 0.4f * float(x) / float(w - 1), 0.8f);
+      if (x == w * 5 / 8 && y == h * 9 / 32) c = glm::vec3(400.0f, 350.0f, 300.0f);
+      if (y == h * 25 / 32) c *= 0.01f;
+      im.pixels.push_back(c);
+    }
+  return im;
+}
+
+gpu::ProbeIn texture_probe_nudge(gpu::ProbeIn q, int k) {
+  auto ulp_of = [](float a, float b, float c) {
+    const float m = std::max(std::fabs(a), std::max(std::fabs(b), std::fabs(c)));
+    return std::nextafter(m, INFINITY) - m;
+  };
+  const float sp = float(k) * ulp_of(q.o_tmax.x, q.o_tmax.y, q.o_tmax.z);
+  const float su = float(k) * ulp_of(q.o_tmax.w, q.d.w, 0.0f);
+  q.o_tmax = glm::vec4(q.o_tmax.x + sp, q.o_tmax.y - sp, q.o_tmax.z + sp, q.o_tmax.w - su);
+  q.d.w = q.d.w + su;
+  return q;
+}
+
 }  // namespace basalt::test

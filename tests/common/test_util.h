@@ -8,6 +8,7 @@
 
 #include <glm/glm.hpp>
 
+#include "image/image_io.h"
 #include "scene/scene.h"
 #include "scene/tables.h"
 #include "vk/context.h"
@@ -27,6 +28,12 @@ std::string source_path(const std::string& relative);
 /// \brief The process-wide Vulkan context for GPU tests (device from BASALT_TEST_DEVICE,
 ///        default "lavapipe"; validation when BASALT_VALIDATION=1).
 vkx::Context& gpu_context();
+
+/// \brief A scene with one diffuse material (reflectance 0.5) and an 8 x 8 film; tests add
+///        the shapes.
+Scene one_material_scene();
+/// \brief A w x h environment map: a smooth gradient, a bright one-texel sun and a dark band.
+Image sky_map(int w = 32, int h = 32);
 
 /// \brief Parses scene text and builds its tables.
 SceneTables tables_from_string(const std::string& text);
@@ -79,6 +86,13 @@ class ProbeRunner {
  private:
   std::unique_ptr<vkx::GpuRenderer> gpu_;
 };
+
+/// \brief A PROBE_TEXTURE query with p and uv moved by k ulps of their largest components (p
+///        by +-k alternately, so that ratios such as atan2(y, x) move too).
+gpu::ProbeIn texture_probe_nudge(gpu::ProbeIn q, int k);
+/// \brief Largest relative difference of two PROBE_ENV answers (Le, pdfs, sampled Li and pdf,
+///        relative to at least 1e-2; the sampled direction weighted 10x); NaN counts as infinite.
+float env_probe_diff(const gpu::ProbeOut& a, const gpu::ProbeOut& b);
 
 /// Fraction of pixels whose every channel agrees within \p rel relative (plus 1e-6 absolute).
 double agreeing_fraction(const std::vector<glm::vec3>& a, const std::vector<glm::vec3>& b,

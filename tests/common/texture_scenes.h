@@ -1,6 +1,12 @@
 // The texture scene of the texture probe tests (tests/gpu/texture_probe_test.cpp) and the
 // stress probes (tests/gpu/stress_test.cpp).
 #pragma once
+#include <filesystem>
+#include <string>
+
+#include <glm/glm.hpp>
+
+#include "image/image_io.h"
 
 namespace basalt::test {
 
@@ -80,5 +86,54 @@ Shape "sphere" "float radius" [ 0.1 ]
 Material "coateddiffuse" "texture roughness" "nest"
 Shape "sphere" "float radius" [ 0.1 ]
 )";
+
+/// \brief kTextureScene plus image maps of every filter, wrap and option and Shirley's
+///        interpimage with each interpolation, reading a non-power-of-two 8-bit sRGB PNG
+///        (resampled pyramid, requantised levels) and a float EXR that it writes into \p dir.
+inline std::string image_texture_scene(const std::filesystem::path& dir) {
+  Image png{24, 20, {}}, exr{16, 16, {}};
+  for (int y = 0; y < png.height; ++y)
+    for (int x = 0; x < png.width; ++x)
+      png.pixels.push_back(glm::vec3(float((x * 7 + y * 3) % 11) / 10.0f, float(x) / 23.0f,
+                                     ((x / 3 + y / 2) % 2) ? 0.9f : 0.1f));
+  for (int y = 0; y < exr.height; ++y)
+    for (int x = 0; x < exr.width; ++x)
+      exr.pixels.push_back(glm::vec3(0.2f + 3.0f * float(x) / 15.0f, float(y * y) / 225.0f,
+                                     ((x + y) % 3) * 0.5f));
+  write_image((dir / "a.png").string(), png);
+  write_image((dir / "b.exr").string(), exr);
+  std::string scene = kTextureScene;
+  const std::string a = (dir / "a.png").string(), b = (dir / "b.exr").string();
+  int k = 0;
+  for (const char* filter : {"point", "bilinear", "trilinear", "ewa"})
+    for (const char* wrap : {"repeat", "black", "clamp"})
+      for (const std::string& file : {a, b}) {
+        const std::string name = "img" + std::to_string(k++);
+        const bool as_float = k % 3 == 0;
+        scene += "Texture \"" + name + "\" \"" + (as_float ? "float" : "spectrum") +
+                 "\" \"imagemap\" \"string filename\" \"" + file + "\" \"string filter\" \"" +
+                 filter + "\" \"string wrap\" \"" + wrap + "\"" +
+                 (k % 4 == 0 ? " \"bool invert\" true" : "") +
+                 (k % 5 == 0 ? " \"float scale\" 1.7 \"float maxanisotropy\" 3" : "") +
+                 (k % 7 == 0 ? " \"string mapping\" \"planar\"" : "") + "\n";
+        scene += std::string("Material ") +
+                 (as_float ? "\"coateddiffuse\" \"texture roughness\" \""
+                           : "\"diffuse\" \"texture reflectance\" \"") +
+                 name + "\"\nShape \"sphere\" \"float radius\" [ 0.1 ]\n";
+      }
+  for (const char* interp : {"nearest", "bilinear", "hermite"})
+    for (const std::string& file : {a, b}) {
+      const std::string name = "ia" + std::to_string(k++);
+      const bool as_float = k % 3 == 0;
+      scene += "Texture \"" + name + "\" \"" + (as_float ? "float" : "spectrum") +
+               "\" \"interpimage\" \"string filename\" \"" + file +
+               "\" \"string interpolation\" \"" + interp + "\"\n";
+      scene += std::string("Material ") +
+               (as_float ? "\"coateddiffuse\" \"texture roughness\" \""
+                         : "\"diffuse\" \"texture reflectance\" \"") +
+               name + "\"\nShape \"sphere\" \"float radius\" [ 0.1 ]\n";
+    }
+  return scene;
+}
 
 }  // namespace basalt::test

@@ -28,28 +28,6 @@ using namespace bsdf;
 
 constexpr glm::uvec3 kDims(16, 8, 16);
 
-/// True if the material tree of \p index contains a MEASURED material.
-bool has_measured(const MaterialSet& set, std::uint32_t index) {
-  if (index >= set.materials.size()) return false;
-  const gpu::Material& m = set.materials[index];
-  if (m.type == gpu::MATERIAL_MEASURED) return true;
-  if (m.type == gpu::MATERIAL_MIX || m.type == gpu::MATERIAL_MIX_WEIGHTED)
-    return has_measured(set, m.aux0) || has_measured(set, m.aux1);
-  return false;
-}
-
-/// Refraction of \p wo through the z = 0 plane with relative IOR \p eta (or reflection on TIR).
-glm::vec3 refract_dir(glm::vec3 wo, float eta) {
-  const glm::dvec3 w(wo);
-  const double e = w.z > 0 ? 1.0 / eta : eta;
-  const double c = std::fabs(w.z), s2 = std::max(0.0, 1 - c * c) * e * e;
-  if (s2 >= 1) return glm::vec3(-wo.x, -wo.y, wo.z);
-  const double ct = std::sqrt(1 - s2);
-  glm::dvec3 t = -w * e;
-  t.z = w.z > 0 ? -ct : ct;
-  return glm::vec3(glm::normalize(t));
-}
-
 /// Rotates \p w by a small random angle (log-uniform 1e-5 .. 0.3 rad).
 glm::vec3 jitter(glm::vec3 w, std::mt19937& rng) {
   std::uniform_real_distribution<double> U(0.0, 1.0);
@@ -57,18 +35,6 @@ glm::vec3 jitter(glm::vec3 w, std::mt19937& rng) {
   glm::dvec3 d(w), r(glm::dvec3(uniform_dir(rng)));
   r = glm::normalize(r - d * glm::dot(r, d));
   return glm::vec3(glm::normalize(d * std::cos(a) + r * std::sin(a)));
-}
-
-/// eta of a material for the "near refraction" wi generator.
-float eta_of(const gpu::Material& m) {
-  switch (m.type) {
-    case gpu::MATERIAL_DIELECTRIC: return m.value[gpu::SLOT_DIELECTRIC_ETA].x;
-    case gpu::MATERIAL_THIN_DIELECTRIC: return m.value[gpu::SLOT_THIN_ETA].x;
-    case gpu::MATERIAL_UBER: return m.value[gpu::SLOT_UBER_ETA].x;
-    case gpu::MATERIAL_COATED_DIFFUSE: return m.value[gpu::SLOT_CD_ETA].x;
-    case gpu::MATERIAL_COATED_CONDUCTOR: return m.value[gpu::SLOT_CC_IF_ETA].x;
-    default: return 1.5f;
-  }
 }
 
 /// Random queries on random materials of every kind, half from the hard-case generators.
@@ -86,7 +52,7 @@ Workload make_workload(int materials_per_kind, int queries_per_material, std::ui
   for (std::uint32_t kind : random_kinds())
     for (int m = 0; m < materials_per_kind; ++m) {
       const std::uint32_t idx = add_random_material(w.set, kind, rng, offset, kDims);
-      const float eta = eta_of(w.set.materials[idx]);
+      const float eta = material_eta(w.set.materials[idx]);
       for (int i = 0; i < queries_per_material; ++i) {
         Query q;
         q.material = idx;
@@ -110,15 +76,6 @@ Workload make_workload(int materials_per_kind, int queries_per_material, std::ui
       }
     }
   return w;
-}
-
-/// wi as the BSDF evaluates it (materials-spec 1.2: wi.z negated when the geometric and the
-/// shading decisions disagree).
-glm::vec3 effective_wi(const Query& q, glm::vec3 wi) {
-  const double go = glm::dot(glm::dvec3(q.wo), glm::dvec3(q.ng));
-  const double gi = glm::dot(glm::dvec3(wi), glm::dvec3(q.ng));
-  const bool geo = go * gi > 0, sh = double(q.wo.z) * wi.z > 0;
-  return geo != sh ? glm::vec3(wi.x, wi.y, -wi.z) : wi;
 }
 
 struct KindStats {
@@ -237,11 +194,7 @@ void check_agreement(const Workload& w, double max_excused_fraction,
     // flip; the sample itself carries a cosine of that size and so almost no weight. Only the
     // sample's fields are excused: eval and pdf at the query's wi must still agree.
     if ((d & kSampleFlags) && !(d & kStatic)) {
-      const Result& c = cpu[i];
-      const Result& g = gpu[i];
-      const bool cpu_tangent = c.sampled() && std::fabs(c.swi.z) < 1e-3f;
-      const bool gpu_tangent = g.sampled() && std::fabs(g.swi.z) < 1e-3f;
-      if ((cpu_tangent || !c.sampled()) && (gpu_tangent || !g.sampled())) {
+      if (tangent_or_no_sample(cpu[i], gpu[i])) {
         d &= ~unsigned(kSampleFlags | kSampleF | kSamplePdf | kSampleWi | kSampleEta |
                        kPdfAtSample);
         if (d == 0) {

@@ -61,27 +61,6 @@ float bits(std::uint32_t u) {
   return f;
 }
 
-/// Camera, a 64 x 48 film, a sky, and the bump textures every scene may use; the image map
-/// file is "disp.png" in the scene's directory.
-const char* kHead = R"(
-LookAt 0 2.2 -7  0 0.4 0  0 1 0
-Camera "perspective" "float fov" [ 42 ]
-Film "rgb" "integer xresolution" [ 64 ] "integer yresolution" [ 48 ]
-WorldBegin
-LightSource "infinite" "rgb L" [ 1 1 1 ]
-AttributeBegin
-  Scale 3 3 3
-  Texture "fbm" "float" "fbm" "integer octaves" [ 6 ] "float roughness" [ 0.55 ]
-  Texture "wr" "float" "wrinkled" "integer octaves" [ 5 ] "float roughness" [ 0.5 ]
-AttributeEnd
-Texture "fbm-s" "float" "scale" "texture tex" "fbm" "float scale" [ 0.08 ]
-Texture "wr-s" "float" "scale" "texture tex" "wr" "float scale" [ 0.05 ]
-Texture "img" "float" "imagemap" "string filename" "disp.png" "string filter" "bilinear"
-    "float uscale" [ 3 ] "float vscale" [ 2 ]
-Texture "img-s" "float" "scale" "texture tex" "img" "float scale" [ 0.04 ]
-Texture "img-t" "float" "imagemap" "string filename" "disp.png" "string filter" "trilinear"
-    "float scale" [ 0.03 ]
-)";
 
 /// A uv sphere as a triangle mesh: centre c, radius r, nu x nv quads, with vertex normals
 /// and/or per-vertex uv on request (pbrt's default uv otherwise).
@@ -145,7 +124,7 @@ Shape "trianglemesh" "integer indices" [ 0 1 2 0 2 3 ]
   "point3 P" [ -20 -1 6  20 -1 6  20 15 6  -20 15 6 ]
 )";
 
-/// One probed scene: its text after kHead, the displacement agreement to allow (tex_err at the
+/// One probed scene: its text after kBumpHead, the displacement agreement to allow (tex_err at the
 /// top of this file; 0 where no displacement texture is evaluated), and how much of it is bumped.
 struct BumpScene {
   const char* name;
@@ -355,7 +334,7 @@ SceneTables bump_tables(const BumpScene& s) {
   std::filesystem::create_directories(dir);
   write_images(dir);
   SceneTables t =
-      build_tables(load_scene_from_string(std::string(kHead) + s.body, "bump.pbrt", dir.string()));
+      build_tables(load_scene_from_string(std::string(kBumpHead) + s.body, "bump.pbrt", dir.string()));
   std::filesystem::remove_all(dir);
   return t;
 }
@@ -564,7 +543,7 @@ TEST(BumpProbe, CameraNudgeMovesTheCpuAnswer) {
 /// A diffuse-only scene bumped by fbm and an image map and normal-mapped (the lean render
 /// shader's kind of scene), with \p maps false: the same scene without bump and normal maps.
 std::string diffuse_bump_scene(bool maps) {
-  std::string s = kHead;
+  std::string s = kBumpHead;
   s += "LightSource \"distant\" \"point3 from\" [ 1 4 -3 ] \"rgb L\" [ 2 2 2 ]\n";
   const std::string fbm = maps ? " \"texture displacement\" \"fbm-s\"" : "";
   const std::string img = maps ? " \"texture displacement\" \"img-s\"" : "";
@@ -579,7 +558,7 @@ std::string diffuse_bump_scene(bool maps) {
 
 /// Tables of diffuse_bump_scene(maps) with the test images.
 SceneTables diffuse_bump_tables(bool maps) {
-  const BumpScene s{"diffuse", diffuse_bump_scene(maps).substr(std::string(kHead).size()), 0.0f,
+  const BumpScene s{"diffuse", diffuse_bump_scene(maps).substr(std::string(kBumpHead).size()), 0.0f,
                     0.0f};
   return bump_tables(s);
 }
@@ -642,7 +621,7 @@ TEST(BumpRender, GpuRenderMatchesCpu) {
 
 // ---- hard cases on the GPU (the CPU twins are the Bump.* tests of tests/cpu/bump_test.cpp) ----
 
-/// Tables of scene text \p body after kHead, with disp.png and normal.png beside it.
+/// Tables of scene text \p body after kBumpHead, with disp.png and normal.png beside it.
 SceneTables hard_tables(const std::string& body, const char* name = "hard") {
   return bump_tables(BumpScene{name, body, 0.0f, 0.0f});
 }
@@ -820,10 +799,10 @@ TEST(BumpProbe, NormalMapTexelZeroOrBelowSurface) {
   const std::filesystem::path dir =
       std::filesystem::temp_directory_path() / ("basalt-nm-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
-  write_images(dir);  // kHead's textures
+  write_images(dir);  // kBumpHead's textures
   Image im{3, 1, {glm::vec3(0.0f), glm::vec3(0.5f), glm::vec3(0.5f, 0.5f, 0.0f)}};
   write_image((dir / "bad.exr").string(), im);
-  const SceneTables t = build_tables(load_scene_from_string(std::string(kHead) + R"(
+  const SceneTables t = build_tables(load_scene_from_string(std::string(kBumpHead) + R"(
 Material "diffuse" "string normalmap" "bad.exr"
 Shape "trianglemesh" "point3 P" [ -3 -1 1  3 -1 1  3 2 1  -3 2 1 ]
   "integer indices" [ 0 1 2  0 2 3 ] "point2 uv" [ 0 0  1 0  1 1  0 1 ]

@@ -46,19 +46,6 @@ fs::path temp_dir(const std::string& tag) {
   return d;
 }
 
-/// A w x h sky (32 x 32 by default): smooth gradient, a bright 1-texel sun and a dark band.
-Image sky_map(int w = 32, int h = 32) {
-  Image im{w, h, {}};
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      glm::vec3 c(0.2f + 0.6f * float(y) / float(h - 1), 0.3f + 0.4f * float(x) / float(w - 1), 0.8f);
-      if (x == w * 5 / 8 && y == h * 9 / 32) c = glm::vec3(400.0f, 350.0f, 300.0f);
-      if (y == h * 25 / 32) c *= 0.01f;
-      im.pixels.push_back(c);
-    }
-  return im;
-}
-
 /// The three mappings of docs/textures-spec.md 6 and 6.8: name, image, light parameters.
 struct EnvCase {
   const char* name;
@@ -107,21 +94,6 @@ gpu::ProbeIn nudge(gpu::ProbeIn q, int k) {
   return q;
 }
 
-/// Largest relative difference of the probe outputs (Le, pdfs, sample).
-float env_diff(const gpu::ProbeOut& a, const gpu::ProbeOut& b) {
-  auto rel = [](float x, float y) {
-    return std::fabs(x - y) / std::max(1e-2f, std::max(std::fabs(x), std::fabs(y)));
-  };
-  float d = 0.0f;
-  for (int c = 0; c < 4; ++c) {
-    d = std::max(d, rel(a.f0[c], b.f0[c]));
-    d = std::max(d, rel(a.f2[c], b.f2[c]));
-  }
-  d = std::max(d, rel(a.f1.w, b.f1.w));
-  d = std::max(d, rel(a.f3.x, b.f3.x));
-  d = std::max(d, 10.0f * glm::length(glm::vec3(a.f1) - glm::vec3(b.f1)));  // 1e-5 -> 1e-4
-  return d;
-}
 
 TEST(EnvmapGpu, ProbeMatchesCpu) {
   for (const EnvCase& ec : env_cases()) {
@@ -151,13 +123,13 @@ TEST(EnvmapGpu, ProbeMatchesCpu) {
   const auto gpu = probe(Side::Gpu, t, q);
   std::size_t bad = 0, excused = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    const float d = env_diff(cpu[i], gpu[i]);
+    const float d = env_probe_diff(cpu[i], gpu[i]);
     if (!(d > 1e-4f)) continue;
     std::vector<gpu::ProbeIn> near;
     for (int k : {1, -1, 2, -2, 4, -4, 8, -8, 16, -16}) near.push_back(nudge(q[i], k));
     const auto c2 = probe(Side::Cpu, t, near);
     float spread = 0.0f;
-    for (const auto& o : c2) spread = std::max(spread, env_diff(o, cpu[i]));
+    for (const auto& o : c2) spread = std::max(spread, env_probe_diff(o, cpu[i]));
     if (spread >= 0.5f * d) {
       ++excused;
       continue;
@@ -517,14 +489,14 @@ TEST(EnvmapGpu, PortalProbeMatchesCpu) {
       if (cpu[i].f0.x > 0.0f) ++visible;
       if (cpu[i].f0.w > 0.0f) ++with_pdf;
       if (cpu[i].f1.w > 0.0f) ++sampled;
-      const float d = env_diff(cpu[i], gpu[i]);
+      const float d = env_probe_diff(cpu[i], gpu[i]);
       if (!(d > 1e-4f)) {
         worst = std::max(worst, d);
         continue;
       }
       const auto c2 = probe(Side::Cpu, t, portal_variants(q[i]));
       float spread = 0.0f;
-      for (const auto& o : c2) spread = std::max(spread, env_diff(o, cpu[i]));
+      for (const auto& o : c2) spread = std::max(spread, env_probe_diff(o, cpu[i]));
       if (spread < 0.5f * d && ill[i] && window_width(probe_ref(q[i])) < 1e-5) {
         ++noise;  // a window narrower than 1e-5: its integral is a few rounding quanta
         continue;

@@ -18,17 +18,6 @@ namespace {
 
 constexpr float kPi = 3.14159265358979f;
 
-/// A scene with one diffuse material and a tiny film; shapes are added by the tests.
-Scene empty_scene() {
-  Scene s;
-  s.film.xres = s.film.yres = 8;
-  Material m;
-  m.type = "diffuse";
-  m.params["reflectance"] = MaterialParam{{0.5f, 0.5f, 0.5f}, "", {}};
-  s.materials.push_back(m);
-  return s;
-}
-
 /// Adds a triangle mesh shape (object space = world space).
 void add_mesh(Scene& s, const std::vector<glm::vec3>& p, const std::vector<unsigned>& idx) {
   Shape sh;
@@ -73,7 +62,7 @@ TEST_P(Robustness, NoSelfIntersectionAtAnyScale) {
   for (float scale : {1e-4f, 1e-2f, 1.0f, 1e2f, 1e4f, 1e6f}) {
     std::mt19937 rng(1234);
     std::uniform_real_distribution<float> u(-1.0f, 1.0f), u01(0.0f, 1.0f);
-    Scene s = empty_scene();
+    Scene s = one_material_scene();
     std::vector<glm::vec3> p;
     std::vector<unsigned> idx;
     const glm::vec3 offset(scale * 3.0f, -scale * 2.0f, scale * 5.0f);  // away from the origin
@@ -167,7 +156,7 @@ TEST_P(Robustness, ClosedMeshIsWatertight) {
         edges.push_back({ring(j, i), ring(j + 1, i)});
       }
     }
-    Scene s = empty_scene();
+    Scene s = one_material_scene();
     add_mesh(s, p, idx);
     SceneTables t = build_tables(s);
     std::mt19937 rng(99);
@@ -197,7 +186,7 @@ TEST_P(Robustness, ClosedMeshIsWatertight) {
 // the triangle behind them is hit instead. The builder drops degenerate triangles, so
 // they are planted into the tables after the build (the BVH bounds still cover them).
 TEST_P(Robustness, DegenerateTrianglesAreSkipped) {
-  Scene s = empty_scene();
+  Scene s = one_material_scene();
   // Two front triangles at z = 0 (to be made degenerate) and a back quad at z = 1.
   add_mesh(s,
            {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0},  // front quad
@@ -232,7 +221,7 @@ TEST_P(Robustness, DegenerateTrianglesAreSkipped) {
 // Grazing rays: shallow angles hit a plane at the analytic distance; rays in the plane and
 // tangent to a sphere give a finite answer (hit or miss), never NaN.
 TEST_P(Robustness, GrazingRays) {
-  Scene s = empty_scene();
+  Scene s = one_material_scene();
   add_mesh(s, {{-100, 0, -100}, {100, 0, -100}, {100, 0, 100}, {-100, 0, 100}},
            {0, 1, 2, 0, 2, 3});
   add_sphere(s, {0, 5, 0}, 1.0f);
@@ -268,7 +257,7 @@ INSTANTIATE_TEST_SUITE_P(BothSides, Robustness, ::testing::Values(Side::Cpu, Sid
 
 // The counter-based generator gives bit-identical numbers on both sides.
 TEST(ProbeConformance, RngIsBitIdentical) {
-  SceneTables t = build_tables(empty_scene());
+  SceneTables t = build_tables(one_material_scene());
   set_seed(t, 424242u);
   std::vector<gpu::ProbeIn> q;
   std::mt19937 rng(3);
@@ -293,7 +282,7 @@ TEST(ProbeConformance, RngIsBitIdentical) {
 
 // Camera rays agree between the sides (within float rounding), for a thin-lens camera.
 TEST(ProbeConformance, CameraRaysAgree) {
-  Scene s = empty_scene();
+  Scene s = one_material_scene();
   s.film.xres = 64;
   s.film.yres = 48;
   s.camera.lens_radius = 0.1f;
@@ -336,7 +325,7 @@ std::vector<gpu::ProbeIn> camera_queries(std::uint32_t op) {
 TEST(ProbeConformance, CameraDifferentialsAgree) {
   for (bool thin_lens : {true, false}) {
     SCOPED_TRACE(thin_lens ? "thin lens" : "pinhole");
-    Scene s = empty_scene();
+    Scene s = one_material_scene();
     s.film.xres = 64;
     s.film.yres = 48;
     s.camera.fov_deg = 50.0f;
@@ -373,7 +362,7 @@ class CameraDifferentials : public ::testing::TestWithParam<Side> {};
 // direction one pixel further in -y (raster y goes down, screen y up); the other axis does
 // not move.
 TEST_P(CameraDifferentials, PinholeAnalytic) {
-  Scene s = empty_scene();
+  Scene s = one_material_scene();
   s.film.xres = 64;
   s.film.yres = 48;
   s.camera.fov_deg = 50.0f;

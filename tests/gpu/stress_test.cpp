@@ -54,6 +54,7 @@
 #include "common/bsdf_check.h"
 #include "common/sampler_scenes.h"
 #include "common/test_util.h"
+#include "common/bump_scenes.h"
 #include "common/texture_scenes.h"
 #include "image/image_io.h"
 
@@ -64,6 +65,11 @@ using Rng = std::mt19937_64;
 using u64 = std::uint64_t;
 using gpu::ProbeIn;
 using gpu::ProbeOut;
+using bsdf::effective_wi;
+using bsdf::has_measured;
+using bsdf::material_eta;
+using bsdf::refract_dir;
+using bsdf::tangent_or_no_sample;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr std::size_t kBatch = std::size_t(1) << 18;  // queries per GPU dispatch
@@ -325,12 +331,7 @@ struct RayScene {
 
 RayScene make_ray_scene() {
   RayScene rs;
-  Scene s;
-  s.film.xres = s.film.yres = 8;
-  Material m;
-  m.type = "diffuse";
-  m.params["reflectance"] = MaterialParam{{0.5f, 0.5f, 0.5f}, "", {}};
-  s.materials.push_back(m);
+  Scene s = one_material_scene();
   Rng rng(7001);
   rs.scales = {1e-4f, 1e-2f, 1.0f, 1e2f, 1e4f, 1e6f};
   std::vector<float> tri_scale;
@@ -635,25 +636,55 @@ bool degenerate_hit(const RayScene& rs, std::uint32_t prim) {
 /// applied to the ray's origin, the precision to which a spawned origin is known): a mismatch
 /// is excused when moving the origin by 1 to 16 ulps of its largest coordinate changes the
 /// CPU's own answer by at least half as much. \p diff measures two answers in tolerance units.
-std::vector<bool> nudge_excusal(const SceneTables& t, const std::vector<ProbeIn>& suspects,
-                                const std::vector<ProbeOut>& cpu, const std::vector<float>& amount,
+/// Inputs whose two sides disagree, with the CPU's answer, by how much, and their batch index.
+struct Suspects {
+  std::vector<ProbeIn> q;
+  std::vector<ProbeOut> cpu;
+  std::vector<float> amount;
+  std::vector<std::size_t> index;
+  /// \brief Records input \p i of the batch.
+  void add(const ProbeIn& in, const ProbeOut& c, float d, std::size_t i) {
+    q.push_back(in), cpu.push_back(c), amount.push_back(d), index.push_back(i);
+  }
+};
+
+/// Moves a query's ray origin by k ulps (the ray probes' nudge).
+ProbeIn origin_nudge(ProbeIn q, int k) {
+  q.o_tmax = glm::vec4(nudge_point(glm::vec3(q.o_tmax), k), q.o_tmax.w);
+  return q;
+}
+
+/// For each suspect: true if nudging its input (by 1..16 ulps, \p nudge) moves the CPU's own
+/// answer by at least half the GPU/CPU difference (an ill-conditioned input, excused).
+std::vector<bool> nudge_excusal(const SceneTables& t, const Suspects& s,
+                                const std::function<ProbeIn(ProbeIn, int)>& nudge,
                                 const std::function<float(const ProbeOut&, const ProbeOut&)>& diff) {
-  std::vector<bool> ok(suspects.size(), false);
-  if (suspects.empty()) return ok;
+  std::vector<bool> ok(s.q.size(), false);
+  if (s.q.empty()) return ok;
   std::vector<ProbeIn> near;
-  for (const ProbeIn& q : suspects)
-    for (int k : kNudges) {
-      ProbeIn n = q;
-      n.o_tmax = glm::vec4(nudge_point(glm::vec3(q.o_tmax), k), q.o_tmax.w);
-      near.push_back(n);
-    }
+  for (const ProbeIn& q : s.q)
+    for (int k : kNudges) near.push_back(nudge(q, k));
   const std::vector<ProbeOut> c2 = probe_cpu_threads(t, near, 2);
-  for (std::size_t j = 0; j < suspects.size(); ++j) {
+  for (std::size_t j = 0; j < s.q.size(); ++j) {
     float spread = 0.0f;
-    for (std::size_t k = 0; k < 10; ++k) spread = std::max(spread, diff(c2[j * 10 + k], cpu[j]));
-    ok[j] = spread >= 0.5f * amount[j];
+    for (std::size_t k = 0; k < 10; ++k) spread = std::max(spread, diff(c2[j * 10 + k], s.cpu[j]));
+    ok[j] = spread >= 0.5f * s.amount[j];
   }
   return ok;
+}
+
+/// Counts each suspect as excused or as a mismatch (reported with \p note of its input).
+void settle(Stress& st, const Suspects& s, const std::vector<bool>& ok, const Answers& a,
+            const std::function<std::string(const ProbeIn&)>& note = {}) {
+  for (std::size_t j = 0; j < s.q.size(); ++j) {
+    if (ok[j]) {
+      ++st.excused;
+      continue;
+    }
+    ++st.mismatches;
+    const std::size_t i = s.index[j];
+    st.offend("mismatch", s.q[j], &a.cpu[i], &a.gpu[i], note ? note(s.q[j]) : std::string());
+  }
 }
 
 TEST(Stress, Closest) {
@@ -670,10 +701,7 @@ TEST(Stress, Closest) {
     std::vector<ProbeIn> q(k);
     for (std::size_t i = 0; i < k; ++i) q[i] = (cases[i] = ray_case(rs, rng, gpu::PROBE_CLOSEST)).q;
     const Answers a = run_both(runner, rs.t, q);
-    std::vector<ProbeIn> sq;
-    std::vector<ProbeOut> sc;
-    std::vector<float> amount;
-    std::vector<std::size_t> si;
+    Suspects sus;
     for (std::size_t i = 0; i < k; ++i) {
       const ProbeOut* o[2] = {&a.cpu[i], &a.gpu[i]};
       for (int side = 0; side < 2; ++side) {
@@ -692,21 +720,11 @@ TEST(Stress, Closest) {
       }
       const float d = diff(a.cpu[i], a.gpu[i]);
       if (d > 1.0f) {
-        sq.push_back(q[i]);
-        sc.push_back(a.cpu[i]);
-        amount.push_back(d);
-        si.push_back(i);
+        sus.add(q[i], a.cpu[i], d, i);
       }
     }
-    const std::vector<bool> ok = nudge_excusal(rs.t, sq, sc, amount, diff);
-    for (std::size_t j = 0; j < sq.size(); ++j) {
-      if (ok[j]) {
-        ++st.excused;
-        continue;
-      }
-      ++st.mismatches;
-      st.offend("mismatch", sq[j], &a.cpu[si[j]], &a.gpu[si[j]]);
-    }
+    const std::vector<bool> ok = nudge_excusal(rs.t, sus, origin_nudge, diff);
+    settle(st, sus, ok, a);
     st.inputs += k;
     done += k;
   }
@@ -762,10 +780,7 @@ TEST(Stress, Occluded) {
       q[2 * i + 1].key.x = gpu::PROBE_CLOSEST;
     }
     const Answers a = run_both(runner, rs.t, q);
-    std::vector<ProbeIn> sq;
-    std::vector<ProbeOut> sc;
-    std::vector<float> amount;
-    std::vector<std::size_t> si;
+    Suspects sus;
     for (std::size_t i = 0; i < k; ++i) {
       const ProbeIn& qi = q[2 * i];
       const ProbeOut* occ[2] = {&a.cpu[2 * i], &a.gpu[2 * i]};
@@ -787,21 +802,11 @@ TEST(Stress, Occluded) {
           st.count_detail("leaks through a closed grid" + sn, qi, occ[0], occ[1]);
       }
       if (occ[0]->u.x != occ[1]->u.x) {
-        sq.push_back(qi);
-        sc.push_back(*occ[0]);
-        amount.push_back(INFINITY);
-        si.push_back(2 * i);
+        sus.add(qi, *occ[0], INFINITY, 2 * i);
       }
     }
-    const std::vector<bool> ok = nudge_excusal(rs.t, sq, sc, amount, diff);
-    for (std::size_t j = 0; j < sq.size(); ++j) {
-      if (ok[j]) {
-        ++st.excused;
-        continue;
-      }
-      ++st.mismatches;
-      st.offend("mismatch", sq[j], &a.cpu[si[j]], &a.gpu[si[j]]);
-    }
+    const std::vector<bool> ok = nudge_excusal(rs.t, sus, origin_nudge, diff);
+    settle(st, sus, ok, a);
     st.inputs += k;
     done += k;
   }
@@ -850,10 +855,7 @@ TEST(Stress, Respawn) {
       q[i].extra = glm::vec4(wi, 0.0f);
     }
     const Answers a = run_both(runner, rs.t, q);
-    std::vector<ProbeIn> sq;
-    std::vector<ProbeOut> sc;
-    std::vector<float> amount;
-    std::vector<std::size_t> si;
+    Suspects sus;
     for (std::size_t i = 0; i < k; ++i) {
       const ProbeOut* o[2] = {&a.cpu[i], &a.gpu[i]};
       for (int side = 0; side < 2; ++side) {
@@ -881,21 +883,11 @@ TEST(Stress, Respawn) {
       }
       const float d = diff(a.cpu[i], a.gpu[i]);
       if (d > 1.0f) {
-        sq.push_back(q[i]);
-        sc.push_back(a.cpu[i]);
-        amount.push_back(d);
-        si.push_back(i);
+        sus.add(q[i], a.cpu[i], d, i);
       }
     }
-    const std::vector<bool> ok = nudge_excusal(rs.t, sq, sc, amount, diff);
-    for (std::size_t j = 0; j < sq.size(); ++j) {
-      if (ok[j]) {
-        ++st.excused;
-        continue;
-      }
-      ++st.mismatches;
-      st.offend("mismatch", sq[j], &a.cpu[si[j]], &a.gpu[si[j]]);
-    }
+    const std::vector<bool> ok = nudge_excusal(rs.t, sus, origin_nudge, diff);
+    settle(st, sus, ok, a);
     st.inputs += k;
     done += k;
   }
@@ -1178,18 +1170,6 @@ glm::vec3 jitter(glm::vec3 w, Rng& r) {
   return glm::vec3(glm::normalize(d * std::cos(a) + x * std::sin(a)));
 }
 
-/// Refraction of \p wo through z = 0 with relative IOR \p eta (reflection on TIR), double.
-glm::vec3 refract_dir(glm::vec3 wo, float eta) {
-  const glm::dvec3 w(wo);
-  const double e = w.z > 0 ? 1.0 / eta : eta;
-  const double c = std::fabs(w.z), s2 = std::max(0.0, 1 - c * c) * e * e;
-  if (s2 >= 1) return glm::vec3(-wo.x, -wo.y, wo.z);
-  const double ct = std::sqrt(1 - s2);
-  glm::dvec3 t = -w * e;
-  t.z = w.z > 0 ? -ct : ct;
-  return glm::vec3(glm::normalize(t));
-}
-
 /// A hard cos theta for local directions: the set of bsdf_check.h hard_cos (0, +-1e-7, +-1e-4,
 /// +-1e-3, +-1, +-(1 - 1e-7), uniform) or log-uniform +-[1e-7, 1e-3].
 double hard_cos_signed(Rng& r) {
@@ -1199,35 +1179,6 @@ double hard_cos_signed(Rng& r) {
   if (i < int(std::size(values))) return values[i];
   if (i < int(std::size(values)) + 2) return (chance(r, 0.5) ? 1.0 : -1.0) * std::pow(10.0, -7.0 + 4.0 * Ud(r));
   return 2.0 * Ud(r) - 1.0;
-}
-
-/// eta of a material (the "near refraction" wi generator of bsdf_probe_test.cpp).
-float material_eta(const gpu::Material& m) {
-  switch (m.type) {
-    case gpu::MATERIAL_DIELECTRIC: return m.value[gpu::SLOT_DIELECTRIC_ETA].x;
-    case gpu::MATERIAL_THIN_DIELECTRIC: return m.value[gpu::SLOT_THIN_ETA].x;
-    case gpu::MATERIAL_UBER: return m.value[gpu::SLOT_UBER_ETA].x;
-    case gpu::MATERIAL_COATED_DIFFUSE: return m.value[gpu::SLOT_CD_ETA].x;
-    case gpu::MATERIAL_COATED_CONDUCTOR: return m.value[gpu::SLOT_CC_IF_ETA].x;
-    default: return 1.5f;
-  }
-}
-
-bool has_measured(const bsdf::MaterialSet& set, std::uint32_t index) {
-  if (index >= set.materials.size()) return false;
-  const gpu::Material& m = set.materials[index];
-  if (m.type == gpu::MATERIAL_MEASURED) return true;
-  if (m.type == gpu::MATERIAL_MIX || m.type == gpu::MATERIAL_MIX_WEIGHTED)
-    return has_measured(set, m.aux0) || has_measured(set, m.aux1);
-  return false;
-}
-
-/// wi as the BSDF evaluates it (materials-spec 1.2), as bsdf_probe_test.cpp effective_wi.
-glm::vec3 effective_wi(const bsdf::Query& q, glm::vec3 wi) {
-  const double go = glm::dot(glm::dvec3(q.wo), glm::dvec3(q.ng));
-  const double gi = glm::dot(glm::dvec3(wi), glm::dvec3(q.ng));
-  const bool geo = go * gi > 0, sh = double(q.wo.z) * wi.z > 0;
-  return geo != sh ? glm::vec3(wi.x, wi.y, -wi.z) : wi;
 }
 
 /// One BSDF query over the hard ranges. Preconditions (docs/materials-spec.md 6): wo, wi and ng
@@ -1405,11 +1356,7 @@ TEST(Stress, Bsdf) {
         }
       }
       if ((d & kSampleFlags) && !(d & kStatic)) {
-        const Result& c = cpu[i];
-        const Result& g = gpu[i];
-        const bool cpu_tangent = c.sampled() && std::fabs(c.swi.z) < 1e-3f;
-        const bool gpu_tangent = g.sampled() && std::fabs(g.swi.z) < 1e-3f;
-        if ((cpu_tangent || !c.sampled()) && (gpu_tangent || !g.sampled())) {
+        if (tangent_or_no_sample(cpu[i], gpu[i])) {
           ++excused_cond;
           continue;
         }
@@ -1487,48 +1434,7 @@ std::filesystem::path temp_dir(const std::string& tag) {
 /// with every filter, wrap and option, and Shirley's interpimage with each interpolation.
 SceneTables texture_tables() {
   const std::filesystem::path dir = temp_dir("tex");
-  Image png{24, 20, {}}, exr{16, 16, {}};
-  for (int y = 0; y < png.height; ++y)
-    for (int x = 0; x < png.width; ++x)
-      png.pixels.push_back(glm::vec3(float((x * 7 + y * 3) % 11) / 10.0f, float(x) / 23.0f,
-                                     ((x / 3 + y / 2) % 2) ? 0.9f : 0.1f));
-  for (int y = 0; y < exr.height; ++y)
-    for (int x = 0; x < exr.width; ++x)
-      exr.pixels.push_back(glm::vec3(0.2f + 3.0f * float(x) / 15.0f, float(y * y) / 225.0f,
-                                     ((x + y) % 3) * 0.5f));
-  write_image((dir / "a.png").string(), png);
-  write_image((dir / "b.exr").string(), exr);
-  std::string scene = kTextureScene;
-  const std::string a = (dir / "a.png").string(), b = (dir / "b.exr").string();
-  int k = 0;
-  for (const char* filter : {"point", "bilinear", "trilinear", "ewa"})
-    for (const char* wrap : {"repeat", "black", "clamp"})
-      for (const std::string& file : {a, b}) {
-        const std::string name = "img" + std::to_string(k++);
-        const bool as_float = k % 3 == 0;
-        scene += "Texture \"" + name + "\" \"" + (as_float ? "float" : "spectrum") +
-                 "\" \"imagemap\" \"string filename\" \"" + file + "\" \"string filter\" \"" +
-                 filter + "\" \"string wrap\" \"" + wrap + "\"" +
-                 (k % 4 == 0 ? " \"bool invert\" true" : "") +
-                 (k % 5 == 0 ? " \"float scale\" 1.7 \"float maxanisotropy\" 3" : "") +
-                 (k % 7 == 0 ? " \"string mapping\" \"planar\"" : "") + "\n";
-        scene += std::string("Material ") +
-                 (as_float ? "\"coateddiffuse\" \"texture roughness\" \""
-                           : "\"diffuse\" \"texture reflectance\" \"") +
-                 name + "\"\nShape \"sphere\" \"float radius\" [ 0.1 ]\n";
-      }
-  for (const char* interp : {"nearest", "bilinear", "hermite"})
-    for (const std::string& file : {a, b}) {
-      const std::string name = "ia" + std::to_string(k++);
-      const bool as_float = k % 3 == 0;
-      scene += "Texture \"" + name + "\" \"" + (as_float ? "float" : "spectrum") +
-               "\" \"interpimage\" \"string filename\" \"" + file +
-               "\" \"string interpolation\" \"" + interp + "\"\n";
-      scene += std::string("Material ") +
-               (as_float ? "\"coateddiffuse\" \"texture roughness\" \""
-                         : "\"diffuse\" \"texture reflectance\" \"") +
-               name + "\"\nShape \"sphere\" \"float radius\" [ 0.1 ]\n";
-    }
+  const std::string scene = image_texture_scene(dir);
   SceneTables t = tables_from_string(scene);
   std::filesystem::remove_all(dir);
   return t;
@@ -1621,19 +1527,6 @@ float hard_diff_scale(Rng& r) {
   }
 }
 
-/// Moves p and uv by k ulps (texture_probe_test.cpp nudge).
-ProbeIn texture_nudge(ProbeIn q, int k) {
-  auto ulp_of = [](float a, float b, float c) {
-    const float m = std::max(std::fabs(a), std::max(std::fabs(b), std::fabs(c)));
-    return std::nextafter(m, INFINITY) - m;
-  };
-  const float sp = float(k) * ulp_of(q.o_tmax.x, q.o_tmax.y, q.o_tmax.z);
-  const float su = float(k) * ulp_of(q.o_tmax.w, q.d.w, 0.0f);
-  q.o_tmax = glm::vec4(q.o_tmax.x + sp, q.o_tmax.y - sp, q.o_tmax.z + sp, q.o_tmax.w - su);
-  q.d.w = q.d.w + su;
-  return q;
-}
-
 float diff3(glm::vec3 a, glm::vec3 b) {
   const glm::vec3 d = glm::abs(a - b);
   const float m = std::max(d.x, std::max(d.y, d.z));
@@ -1716,9 +1609,7 @@ TEST(Stress, Texture) {
       }
     }
     const Answers a = run_both(runner, t, q);
-    std::vector<ProbeIn> sq;
-    std::vector<std::size_t> si;
-    std::vector<float> amount;
+    Suspects sus;
     for (std::size_t i = 0; i < k; ++i) {
       const glm::vec3 v[2] = {glm::vec3(a.cpu[i].f0), glm::vec3(a.gpu[i].f0)};
       for (int side = 0; side < 2; ++side) {
@@ -1738,31 +1629,16 @@ TEST(Stress, Texture) {
       const float d = diff3(v[0], v[1]);
       const float tol = 1e-5f + 1e-5f * std::max(glm::length(v[0]), glm::length(v[1]));
       if (d > tol) {
-        sq.push_back(q[i]);
-        si.push_back(i);
-        amount.push_back(d);
+        sus.add(q[i], a.cpu[i], d, i);
       }
     }
-    if (!sq.empty()) {
-      std::vector<ProbeIn> near;
-      for (const ProbeIn& e : sq)
-        for (int kk : kNudges) near.push_back(texture_nudge(e, kk));
-      const std::vector<ProbeOut> c2 = probe_cpu_threads(t, near, 2);
-      for (std::size_t j = 0; j < sq.size(); ++j) {
-        const std::size_t i = si[j];
-        float spread = 0.0f;
-        for (std::size_t kk = 0; kk < 10; ++kk)
-          spread = std::max(spread, diff3(glm::vec3(c2[j * 10 + kk].f0), glm::vec3(a.cpu[i].f0)));
-        if (spread >= 0.5f * amount[j]) {
-          ++st.excused;
-          continue;
-        }
-        ++st.mismatches;
-        const gpu::Texture& x = t.textures[q[i].key.y];
-        st.offend("mismatch", q[i], &a.cpu[i], &a.gpu[i],
-                  "texture type " + std::to_string(x.type) + " flags " + std::to_string(x.flags));
-      }
-    }
+    auto f0_diff = [](const ProbeOut& x, const ProbeOut& y) {
+      return diff3(glm::vec3(x.f0), glm::vec3(y.f0));
+    };
+    settle(st, sus, nudge_excusal(t, sus, texture_probe_nudge, f0_diff), a, [&t](const ProbeIn& in) {
+      const gpu::Texture& x = t.textures[in.key.y];
+      return "texture type " + std::to_string(x.type) + " flags " + std::to_string(x.flags);
+    });
     st.inputs += k;
     done += k;
   }
@@ -1847,34 +1723,6 @@ TEST(Stress, Noise) {
 // 8 x 48 skies with a bright texel and a dark band), each a rotated light of one scene.
 // =============================================================================================
 
-/// A w x h sky: smooth gradient, a bright 1-texel sun and a dark band (envmap_gpu_test.cpp).
-Image sky_map(int w, int h) {
-  Image im{w, h, {}};
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      glm::vec3 c(0.2f + 0.6f * float(y) / float(h - 1), 0.3f + 0.4f * float(x) / float(w - 1), 0.8f);
-      if (x == w * 5 / 8 && y == h * 9 / 32) c = glm::vec3(400.0f, 350.0f, 300.0f);
-      if (y == h * 25 / 32) c *= 0.01f;
-      im.pixels.push_back(c);
-    }
-  return im;
-}
-
-/// Largest relative difference of the ENV outputs (envmap_gpu_test.cpp env_diff).
-float env_diff(const ProbeOut& a, const ProbeOut& b) {
-  auto rel = [](float x, float y) {
-    return std::fabs(x - y) / std::max(1e-2f, std::max(std::fabs(x), std::fabs(y)));
-  };
-  float d = 0.0f;
-  for (int c = 0; c < 4; ++c) {
-    d = std::max(d, rel(a.f0[c], b.f0[c]));
-    d = std::max(d, rel(a.f2[c], b.f2[c]));
-  }
-  d = std::max(d, rel(a.f1.w, b.f1.w));
-  d = std::max(d, rel(a.f3.x, b.f3.x));
-  d = std::max(d, 10.0f * glm::length(glm::vec3(a.f1) - glm::vec3(b.f1)));
-  return std::isnan(d) ? INFINITY : d;
-}
 
 /// Moves d and u by k ulps (envmap_gpu_test.cpp nudge).
 ProbeIn env_nudge(ProbeIn q, int k) {
@@ -1967,9 +1815,7 @@ TEST(Stress, Env) {
       }
     }
     const Answers a = run_both(runner, t, q);
-    std::vector<ProbeIn> sq;
-    std::vector<std::size_t> si;
-    std::vector<float> amount;
+    Suspects sus;
     for (std::size_t i = 0; i < k; ++i) {
       const ProbeOut* o[2] = {&a.cpu[i], &a.gpu[i]};
       for (int side = 0; side < 2; ++side) {
@@ -1985,30 +1831,12 @@ TEST(Stress, Env) {
           st.count_detail(side ? "sampled direction not unit gpu" : "sampled direction not unit cpu",
                           q[i], o[0], o[1]);
       }
-      const float d = env_diff(a.cpu[i], a.gpu[i]);
+      const float d = env_probe_diff(a.cpu[i], a.gpu[i]);
       if (d > 1e-4f) {
-        sq.push_back(q[i]);
-        si.push_back(i);
-        amount.push_back(d);
+        sus.add(q[i], a.cpu[i], d, i);
       }
     }
-    if (!sq.empty()) {
-      std::vector<ProbeIn> near;
-      for (const ProbeIn& e : sq)
-        for (int kk : kNudges) near.push_back(env_nudge(e, kk));
-      const std::vector<ProbeOut> c2 = probe_cpu_threads(t, near, 2);
-      for (std::size_t j = 0; j < sq.size(); ++j) {
-        const std::size_t i = si[j];
-        float spread = 0.0f;
-        for (std::size_t kk = 0; kk < 10; ++kk) spread = std::max(spread, env_diff(c2[j * 10 + kk], a.cpu[i]));
-        if (spread >= 0.5f * amount[j]) {
-          ++st.excused;
-          continue;
-        }
-        ++st.mismatches;
-        st.offend("mismatch", q[i], &a.cpu[i], &a.gpu[i]);
-      }
-    }
+    settle(st, sus, nudge_excusal(t, sus, env_nudge, env_probe_diff), a);
     st.inputs += k;
     done += k;
   }
@@ -2094,24 +1922,7 @@ SceneTables bump_stress_tables() {
     }
   write_image((dir / "disp.png").string(), disp);
   write_image((dir / "normal.png").string(), nm);
-  std::string scene = R"(
-LookAt 0 2.2 -7  0 0.4 0  0 1 0
-Camera "perspective" "float fov" [ 42 ]
-Film "rgb" "integer xresolution" [ 64 ] "integer yresolution" [ 48 ]
-WorldBegin
-LightSource "infinite" "rgb L" [ 1 1 1 ]
-AttributeBegin
-  Scale 3 3 3
-  Texture "fbm" "float" "fbm" "integer octaves" [ 6 ] "float roughness" [ 0.55 ]
-  Texture "wr" "float" "wrinkled" "integer octaves" [ 5 ] "float roughness" [ 0.5 ]
-AttributeEnd
-Texture "fbm-s" "float" "scale" "texture tex" "fbm" "float scale" [ 0.08 ]
-Texture "wr-s" "float" "scale" "texture tex" "wr" "float scale" [ 0.05 ]
-Texture "img" "float" "imagemap" "string filename" "disp.png" "string filter" "bilinear"
-    "float uscale" [ 3 ] "float vscale" [ 2 ]
-Texture "img-s" "float" "scale" "texture tex" "img" "float scale" [ 0.04 ]
-Texture "img-t" "float" "imagemap" "string filename" "disp.png" "string filter" "trilinear"
-    "float scale" [ 0.03 ]
+  std::string scene = std::string(kBumpHead) + R"(
 MakeNamedMaterial "bumped" "string type" "conductor" "float roughness" [ 0.2 ]
     "texture displacement" "fbm-s"
 MakeNamedMaterial "plain" "string type" "diffuse" "rgb reflectance" [ .3 .5 .7 ]

@@ -73,21 +73,6 @@ gpu::ProbeIn random_context(std::mt19937& rng, std::uint32_t root, bool is_float
   return q;
 }
 
-/// Moves p by k ulps of its largest coordinate and uv by k ulps of its largest, with
-/// alternating signs (x +, y -, z +; u -, v +): the precision to which a hit point is known,
-/// and a move that also changes ratios such as atan2(y, x).
-gpu::ProbeIn nudge(gpu::ProbeIn q, int k) {
-  auto ulp_of = [](float a, float b, float c) {
-    const float m = std::max(std::fabs(a), std::max(std::fabs(b), std::fabs(c)));
-    return std::nextafter(m, INFINITY) - m;
-  };
-  const float sp = float(k) * ulp_of(q.o_tmax.x, q.o_tmax.y, q.o_tmax.z);
-  const float su = float(k) * ulp_of(q.o_tmax.w, q.d.w, 0.0f);
-  q.o_tmax = glm::vec4(q.o_tmax.x + sp, q.o_tmax.y - sp, q.o_tmax.z + sp, q.o_tmax.w - su);
-  q.d.w = q.d.w + su;
-  return q;
-}
-
 float diff3(glm::vec3 a, glm::vec3 b) {
   const glm::vec3 d = glm::abs(a - b);
   return std::max(d.x, std::max(d.y, d.z));
@@ -117,7 +102,7 @@ std::vector<std::uint32_t> compare_textures(const SceneTables& t, std::size_t n,
     if (!(d > tol)) continue;
     // Ill-conditioned: the CPU's own answer 1 to 16 ulps away differs by half as much.
     std::vector<gpu::ProbeIn> near;
-    for (int k : {1, -1, 2, -2, 4, -4, 8, -8, 16, -16}) near.push_back(nudge(q[i], k));
+    for (int k : {1, -1, 2, -2, 4, -4, 8, -8, 16, -16}) near.push_back(texture_probe_nudge(q[i], k));
     const auto c2 = probe(Side::Cpu, t, near);
     float spread = 0.0f;
     for (const auto& o : c2) spread = std::max(spread, diff3(glm::vec3(o.f0), a));
@@ -163,48 +148,7 @@ TEST(TextureProbe, ImageMapsGpuMatchCpuEveryFilterAndWrap) {
   const std::filesystem::path dir =
       std::filesystem::temp_directory_path() / ("basalt-texprobe-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
-  Image png{24, 20, {}}, exr{16, 16, {}};
-  for (int y = 0; y < png.height; ++y)
-    for (int x = 0; x < png.width; ++x)
-      png.pixels.push_back(glm::vec3(float((x * 7 + y * 3) % 11) / 10.0f, float(x) / 23.0f,
-                                     ((x / 3 + y / 2) % 2) ? 0.9f : 0.1f));
-  for (int y = 0; y < exr.height; ++y)
-    for (int x = 0; x < exr.width; ++x)
-      exr.pixels.push_back(glm::vec3(0.2f + 3.0f * float(x) / 15.0f, float(y * y) / 225.0f,
-                                     ((x + y) % 3) * 0.5f));
-  write_image((dir / "a.png").string(), png);
-  write_image((dir / "b.exr").string(), exr);
-  std::string scene = kTextureScene;
-  const std::string a = (dir / "a.png").string(), b = (dir / "b.exr").string();
-  int k = 0;
-  for (const char* filter : {"point", "bilinear", "trilinear", "ewa"})
-    for (const char* wrap : {"repeat", "black", "clamp"})
-      for (const std::string& file : {a, b}) {
-        const std::string name = "img" + std::to_string(k++);
-        const bool as_float = k % 3 == 0;
-        scene += "Texture \"" + name + "\" \"" + (as_float ? "float" : "spectrum") +
-                 "\" \"imagemap\" \"string filename\" \"" + file + "\" \"string filter\" \"" +
-                 filter + "\" \"string wrap\" \"" + wrap + "\"" +
-                 (k % 4 == 0 ? " \"bool invert\" true" : "") +
-                 (k % 5 == 0 ? " \"float scale\" 1.7 \"float maxanisotropy\" 3" : "") +
-                 (k % 7 == 0 ? " \"string mapping\" \"planar\"" : "") + "\n";
-        scene += std::string("Material ") +
-                 (as_float ? "\"coateddiffuse\" \"texture roughness\" \""
-                           : "\"diffuse\" \"texture reflectance\" \"") +
-                 name + "\"\nShape \"sphere\" \"float radius\" [ 0.1 ]\n";
-      }
-  for (const char* interp : {"nearest", "bilinear", "hermite"})
-    for (const std::string& file : {a, b}) {
-      const std::string name = "ia" + std::to_string(k++);
-      const bool as_float = k % 3 == 0;
-      scene += "Texture \"" + name + "\" \"" + (as_float ? "float" : "spectrum") +
-               "\" \"interpimage\" \"string filename\" \"" + file +
-               "\" \"string interpolation\" \"" + interp + "\"\n";
-      scene += std::string("Material ") +
-               (as_float ? "\"coateddiffuse\" \"texture roughness\" \""
-                         : "\"diffuse\" \"texture reflectance\" \"") +
-               name + "\"\nShape \"sphere\" \"float radius\" [ 0.1 ]\n";
-    }
+  const std::string scene = image_texture_scene(dir);
   const SceneTables t = tables_from_string(scene);
   std::filesystem::remove_all(dir);
   ASSERT_GT(t.mip_levels.size(), 5u);
