@@ -47,6 +47,13 @@ inline bool usable(const BsdfSample& s) {
 ///        wi is below n; false on total internal reflection.
 bool refract_v4(glm::vec3 wi, glm::vec3 n, float eta, float* etap, glm::vec3* wt);
 
+/// \brief (dot(wi, wm) + dot(wo, wm) / etap)^2, the denominator of dwm/dwi and of rough
+///        transmission in pbrt-v4 DielectricBxDF::Sample_f, for wi refracted from wo through wm
+///        (cos_i = |dot(wo, wm)|): by Snell's law the sum is +-(1 - etap^2) / (etap (cos_i +
+///        etap cos_t)) (cos_i / etap - cos_t times its conjugate), whose rounding error stays a
+///        few ulps where the sum itself cancels to a few bits when etap is near 1.
+float refracted_half_denom(float cos_i, float etap);
+
 /// pbrt-v4 DiffuseBxDF (R / pi, cosine sampling).
 struct Diffuse {
   glm::vec3 R{0.0f};

@@ -55,18 +55,31 @@ inline Complexf complex_sqrt(Complexf z) {
   return {std::fabs(t2), std::copysign(t1, z.im)};
 }
 
-/// \brief Fresnel reflectance of a conductor of complex IOR eta + i k for one channel
-///        (pbrt-v4 util/scattering.h FrComplex, cos clamped to [0, 1]).
+/// \brief Fresnel reflectance of a conductor of complex IOR e = eta + i k for one channel: the
+///        value of pbrt-v4 util/scattering.h FrComplex (cos c clamped to [0, 1]), with each
+///        amplitude's numerator multiplied by its conjugate so that nothing cancels near e = 1:
+///        r_perp = (1 - e^2) / (c + e cos_t)^2, r_parl = (e^2 - 1) ((e^2 + 1) c^2 - 1) /
+///        (e^2 (e c + cos_t)^2) (Snell: e^2 cos_t^2 = e^2 - sin^2; materials-spec 2.2), their
+///        squared moduli taken as quotients of norms, cos_t^2 as (c^2 - (1 - e^2)) / e^2. An index-matched conductor (e = 1)
+///        reflects exactly 0, where pbrt-v4's form leaves rounding noise of ~1e-14.
 inline float fr_complex(float cos_i, float eta, float k) {
-  cos_i = glm::clamp(cos_i, 0.0f, 1.0f);
+  const float c = glm::clamp(cos_i, 0.0f, 1.0f);
   const Complexf e{eta, k};
-  const float sin2_i = 1.0f - cos_i * cos_i;
-  const Complexf sin2_t = Complexf{sin2_i, 0.0f} / (e * e);
-  const Complexf cos_t = complex_sqrt(Complexf{1.0f, 0.0f} - sin2_t);
-  const Complexf ci{cos_i, 0.0f};
-  const Complexf r_parl = (e * cos_i - cos_t) / (e * cos_i + cos_t);
-  const Complexf r_perp = (ci - e * cos_t) / (ci + e * cos_t);
-  return (complex_norm(r_parl) + complex_norm(r_perp)) / 2.0f;
+  const Complexf e2 = e * e;
+  // 1 - e^2 with the real part (1 - eta)(1 + eta) + k^2 (exactly 0 at e = 1).
+  const Complexf one_minus_e2{(1.0f - eta) * (1.0f + eta) + k * k, -2.0f * eta * k};
+  const float n0 = complex_norm(one_minus_e2);
+  if (n0 == 0.0f) return 0.0f;
+  // cos_t^2 = 1 - (1 - c^2) / e^2 = (c^2 - (1 - e^2)) / e^2, without the cancellation of the
+  // first form at grazing incidence near e = 1.
+  const Complexf cos_t = complex_sqrt(Complexf{c * c - one_minus_e2.re, -one_minus_e2.im} / e2);
+  const float n_perp = complex_norm(Complexf{c, 0.0f} + e * cos_t);
+  const float n_parl = complex_norm(e * c + cos_t);
+  if (!(n_perp > 0.0f) || !(n_parl > 0.0f)) return 1.0f;  // the grazing limit
+  const float nq = complex_norm(Complexf{(e2.re + 1.0f) * (c * c) - 1.0f, e2.im * (c * c)});
+  const float perp = n0 / n_perp / n_perp;
+  const float parl = n0 / complex_norm(e2) * (nq / n_parl / n_parl);
+  return (parl + perp) / 2.0f;
 }
 
 /// \brief FrComplex per rgb channel (pbrt-v4 FrComplex of a SampledSpectrum).

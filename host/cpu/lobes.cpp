@@ -136,6 +136,14 @@ static glm::vec3 sample_wm_up(const Microfacet& mf, glm::vec3 wo, glm::vec2 u) {
   return face_forward(mf.sample_wm(wo, u), glm::vec3(0.0f, 0.0f, 1.0f));
 }
 
+// The refracted half-vector denominator in its Snell's-law form (bxdfs.h).
+float refracted_half_denom(float cos_i, float etap) {
+  // cos_t^2 = 1 - (1 - cos_i^2) / etap^2 = ((etap - 1)(etap + 1) + cos_i^2) / etap^2.
+  const float cos_t = std::sqrt(std::max(0.0f, ((etap - 1.0f) * (etap + 1.0f) + cos_i * cos_i) / (etap * etap)));
+  const float t = ((1.0f - etap) * (1.0f + etap)) / (etap * (cos_i + etap * cos_t));
+  return t * t;
+}
+
 BsdfSample Dielectric::sample(glm::vec3 wo, float uc, glm::vec2 u, Mode mode,
                               std::uint32_t sf) const {
   BsdfSample s;
@@ -185,8 +193,8 @@ BsdfSample Dielectric::sample(glm::vec3 wo, float uc, glm::vec2 u, Mode mode,
   float etap = 1.0f;
   const bool tir = !refract_v4(wo, wm, eta, &etap, &wi);
   if (tir || same_hemisphere(wo, wi) || wi.z == 0.0f) return BsdfSample{};
-  const float dn = glm::dot(wi, wm) + glm::dot(wo, wm) / etap;
-  const float denom = dn * dn;
+  const float denom = refracted_half_denom(std::fabs(glm::dot(wo, wm)), etap);
+  if (!(denom > 0.0f)) return BsdfSample{};
   const float dwm_dwi = std::fabs(glm::dot(wi, wm)) / denom;
   s.pdf = mf.PDF(wo, wm) * dwm_dwi * pt / (pr + pt);
   float ft = T * mf.D(wm) * mf.G(wo, wi) *

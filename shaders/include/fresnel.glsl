@@ -45,19 +45,30 @@ precise vec2 c_sqrt(vec2 z) {
   return vec2(abs(t2), z.y < 0.0 ? -t1 : t1);
 }
 
-// Fresnel reflectance of a conductor with complex IOR eta + i k, one channel: pbrt-v4
-// FrComplex (cos clamped to [0, 1]).
+// Fresnel reflectance of a conductor with complex IOR e = eta + i k, one channel: pbrt-v4
+// FrComplex's value (cos c clamped to [0, 1]) in a form without cancellation near e = 1
+// (docs/materials-spec.md 2.2): |r_perp|^2 = |1 - e^2|^2 / |c + e cos_t|^4 and |r_parl|^2 =
+// |1 - e^2|^2 / |e|^4 * |(e^2 + 1) c^2 - 1|^2 / |e c + cos_t|^4 (each amplitude times its
+// conjugate, with e^2 cos_t^2 = e^2 - sin^2 from Snell's law; cos_t^2 = (c^2 - (1 - e^2)) / e^2);
+// 0 exactly at e = 1.
 precise float fr_complex1(float cos_i, float eta_re, float eta_im) {
-  cos_i = clamp(cos_i, 0.0, 1.0);
+  float c = clamp(cos_i, 0.0, 1.0);
   vec2 eta = vec2(eta_re, eta_im);
-  float sin2_i = 1.0 - cos_i * cos_i;
-  vec2 sin2_t = c_div(vec2(sin2_i, 0.0), c_mul(eta, eta));
-  vec2 cos_t = c_sqrt(vec2(1.0 - sin2_t.x, -sin2_t.y));
-  vec2 ec = eta * cos_i;
-  vec2 r_parl = c_div(ec - cos_t, ec + cos_t);
+  vec2 e2 = c_mul(eta, eta);
+  // 1 - e^2 with the real part (1 - eta)(1 + eta) + k^2.
+  vec2 ome2 = vec2((1.0 - eta_re) * (1.0 + eta_re) + eta_im * eta_im, -2.0 * eta_re * eta_im);
+  float n0 = c_norm(ome2);
+  if (n0 == 0.0) return 0.0;
+  // cos_t^2 = (c^2 - (1 - e^2)) / e^2 (no cancellation at grazing incidence near e = 1).
+  vec2 cos_t = c_sqrt(c_div(vec2(c * c - ome2.x, -ome2.y), e2));
   vec2 ect = c_mul(eta, cos_t);
-  vec2 r_perp = c_div(vec2(cos_i - ect.x, -ect.y), vec2(cos_i + ect.x, ect.y));
-  return (c_norm(r_parl) + c_norm(r_perp)) / 2.0;
+  float n_perp = c_norm(vec2(c + ect.x, ect.y));
+  float n_parl = c_norm(eta * c + cos_t);
+  if (!(n_perp > 0.0) || !(n_parl > 0.0)) return 1.0;  // the grazing limit
+  float nq = c_norm(vec2((e2.x + 1.0) * (c * c) - 1.0, e2.y * (c * c)));
+  float perp = n0 / n_perp / n_perp;
+  float parl = n0 / c_norm(e2) * (nq / n_parl / n_parl);
+  return (parl + perp) / 2.0;
 }
 
 // FrComplex per rgb channel (docs/materials-spec.md 2.2), in a loop (one inlined copy).

@@ -349,6 +349,16 @@ uint dielectric_flags(float eta, MfDist d) {
   return f | (mf_smooth(d) ? BSDF_SPECULAR : BSDF_GLOSSY);
 }
 
+// (dot(wi, wm) + dot(wo, wm) / etap)^2 of a wi refracted from wo through wm (cos_i =
+// |dot(wo, wm)|; pbrt-v4 DielectricBxDF::Sample_f's dwm/dwi and transmission denominator) as
+// ((1 - etap^2) / (etap (cos_i + etap cos_t)))^2 by Snell's law: no cancellation near etap = 1.
+precise float refracted_half_denom(float cos_i, float etap) {
+  // cos_t^2 = 1 - (1 - cos_i^2) / etap^2 = ((etap - 1)(etap + 1) + cos_i^2) / etap^2.
+  precise float cos_t = sqrt(max(0.0, ((etap - 1.0) * (etap + 1.0) + cos_i * cos_i) / (etap * etap)));
+  precise float t = ((1.0 - etap) * (1.0 + etap)) / (etap * (cos_i + etap * cos_t));
+  return t * t;
+}
+
 // pbrt-v4 DielectricBxDF (f unscaled): Sample_f (smp, with uc, u and sample flags sflags) or f
 // and PDF (with sflags) at (wo, wi); radiance or importance mode. f (in .x), pdf, wi, flags
 // and etap in the returned sample (flags 0 when smp finds none). One function for both, with
@@ -406,20 +416,22 @@ BsdfSample dielectric_query(float eta, MfDist d, vec3 wo, vec3 wi, float uc, vec
   }
   vec3 dgp = mf_dgp(d, wo, wi, wm, wm);
   precise float dwi = dot_exact(wi, wm);
+  // Transmission's (dwi + dwo / etap)^2: a sample's from Snell's law, f and PDF's as pbrt-v4.
+  precise float tsum = dwi + dwo / etap;
+  precise float denom = smp ? refracted_half_denom(abs(dwo), etap) : tsum * tsum;
+  if (smp && !reflect && !(denom > 0.0)) return no_sample();
   precise float f;
   if (no_choice) {
     r.pdf = 0.0;
   } else if (reflect) {
     r.pdf = dgp.z / (4.0 * abs(dwo)) * pr / (pr + pt);
   } else {
-    r.pdf = dgp.z * (abs(dwi) / ((dwi + dwo / etap) * (dwi + dwo / etap))) * pt / (pr + pt);
+    r.pdf = dgp.z * (abs(dwi) / denom) * pt / (pr + pt);
   }
   if (reflect) {
     f = smp ? dgp.x * dgp.y * R / (4.0 * wi.z * wo.z)
             : dgp.x * dgp.y * R / abs(4.0 * wi.z * wo.z);
   } else {
-    precise float t = dwi + dwo / etap;
-    precise float denom = t * t;
     f = smp ? T * dgp.x * dgp.y * abs(dwi * dwo / (wi.z * wo.z * denom))
             : dgp.x * T * dgp.y * abs(dwi * dwo / (denom * wi.z * wo.z));
     if (radiance) f /= etap * etap;

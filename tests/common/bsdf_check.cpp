@@ -3,6 +3,7 @@
 #include "common/bsdf_check.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <set>
@@ -872,11 +873,17 @@ unsigned differences(const Result& a, const Result& b, float rel, float abs) {
 std::vector<unsigned> unstable_fields(Side side, const SceneTables& tables,
                                       const std::vector<Query>& qs,
                                       const std::vector<Result>& answers, float rel, float abs) {
-  constexpr int kPerturb = 8;
+  constexpr int kPerturb = 16;
   std::vector<Query> pq;
   pq.reserve(qs.size() * kPerturb);
-  std::mt19937 rng(99);
-  for (const Query& q0 : qs)
+  for (const Query& q0 : qs) {
+    // Perturbations drawn from the query's own bits, so that its verdict does not depend on
+    // which other queries of a batch are judged with it.
+    std::uint64_t h = 1469598103934665603ull;
+    auto mix = [&](float v) { h = (h ^ std::bit_cast<std::uint32_t>(v)) * 1099511628211ull; };
+    for (int c = 0; c < 3; ++c) mix(q0.wo[c]), mix(q0.wi[c]), mix(q0.u[c]);
+    h = (h ^ q0.material) * 1099511628211ull;
+    std::mt19937 rng(std::uint32_t(h ^ (h >> 32)));
     for (int k = 0; k < kPerturb; ++k) {
       Query q = q0;
       // Up to 4 ulps of 1 per component, absolute: the components of a unit vector that a
@@ -896,6 +903,7 @@ std::vector<unsigned> unstable_fields(Side side, const SceneTables& tables,
         q.u[c] = std::clamp(q.u[c] + float(int(rng() % 9) - 4) * 6e-8f, 0.0f, kOneMinus);
       pq.push_back(q);
     }
+  }
   const std::vector<Result> pr = run(side, tables, pq);
   std::vector<unsigned> mask(qs.size(), 0);
   for (std::size_t j = 0; j < qs.size(); ++j)
@@ -983,6 +991,146 @@ glm::vec3 effective_wi(const Query& q, glm::vec3 wi) {
 bool tangent_or_no_sample(const Result& cpu, const Result& gpu) {
   auto ok = [](const Result& r) { return !r.sampled() || std::fabs(r.swi.z) < 1e-3f; };
   return ok(cpu) && ok(gpu);
+}
+
+// ---- judging GPU against CPU answers ---------------------------------------------------------
+
+namespace {
+
+/// CPU answers of the mismatched queries asked again with wi = the direction that `from`
+/// sampled (only where a sample's f, pdf or pdf at the sample differ, `from` sampled a
+/// non-specular, non-proportional direction, and the difference mask has no bit of skip_if).
+struct Requery {
+  std::vector<Result> answers;
+  std::vector<std::size_t> index;  // per mismatched query: its answer, or SIZE_MAX
+};
+Requery cpu_at_sampled_direction(const SceneTables& t, const std::vector<Query>& qs,
+                                 const std::vector<std::size_t>& mismatched,
+                                 const std::vector<unsigned>& diff, const std::vector<Result>& from,
+                                 unsigned skip_if) {
+  Requery r;
+  r.index.assign(mismatched.size(), SIZE_MAX);
+  std::vector<Query> rq;
+  for (std::size_t j = 0; j < mismatched.size(); ++j) {
+    const std::size_t i = mismatched[j];
+    const Result& f = from[i];
+    if ((diff[i] & skip_if) || !(diff[i] & (kSampleF | kSamplePdf | kPdfAtSample)) ||
+        !f.sampled() || f.proportional || (f.sflags & gpu::BSDF_SPECULAR))
+      continue;
+    Query q = qs[i];
+    q.wi = f.swi;
+    r.index[j] = rq.size();
+    rq.push_back(q);
+  }
+  r.answers = run(Side::Cpu, t, rq);
+  return r;
+}
+
+}  // namespace
+
+const char* verdict_name(Verdict v) {
+  switch (v) {
+    case Verdict::Agree: return "agree";
+    case Verdict::MeasuredBin: return "measured bin";
+    case Verdict::Tangent: return "tangent sample";
+    case Verdict::IllConditioned: return "ill-conditioned";
+    case Verdict::OtherDirection: return "same at the other side's direction";
+    case Verdict::RandomWalk: return "random walk";
+    case Verdict::Mismatch: return "mismatch";
+  }
+  return "?";
+}
+
+Judgement judge(const MaterialSet& set, const SceneTables& tables, glm::uvec3 dims,
+                const std::vector<Query>& qs, const std::vector<Result>& cpu,
+                const std::vector<Result>& gpu) {
+  constexpr unsigned kSampleValues = kSampleF | kSamplePdf | kPdfAtSample;
+  const std::size_t n = qs.size();
+  Judgement J{std::vector<Verdict>(n, Verdict::Agree), std::vector<unsigned>(n, 0),
+              std::vector<unsigned>(n, 0)};
+  std::vector<std::size_t> mismatched;
+  for (std::size_t i = 0; i < n; ++i) {
+    J.fields[i] = differences(cpu[i], gpu[i]);
+    if (J.fields[i]) mismatched.push_back(i);
+  }
+  std::vector<Query> mq;
+  std::vector<Result> mr;
+  for (std::size_t i : mismatched) mq.push_back(qs[i]), mr.push_back(cpu[i]);
+  const std::vector<unsigned> ill = unstable_fields(Side::Cpu, tables, mq, mr);
+  // Sampled values conditioned on the sampled direction: where the sampled directions agree
+  // (kSampleWi clear) but the sample's values do not, the CPU evaluates bsdf_eval and bsdf_pdf
+  // at the GPU's direction. Inside narrow lobes (alpha ~ 1e-3), or where the half vector is
+  // recomputed from a wi that nearly cancels wo (eta near 1), a direction difference of a few
+  // 1e-8 changes D by 1e-4 or more; if the CPU's values at the GPU's direction equal the GPU's
+  // differing values, both implement the same function and only the direction's rounding
+  // differs.
+  const Requery at_gpu = cpu_at_sampled_direction(tables, qs, mismatched, J.fields, gpu, kSampleWi);
+  // Self-consistency of the CPU's own sample: a lobe's sample computes f and pdf from the
+  // sampled microfacet normal, bsdf_eval from the normal recomputed from (wo, wi). Where the two
+  // differ by more than the tolerance on the CPU alone, the sample's values are not determined
+  // to 1e-4 by float arithmetic and cannot be compared to 1e-4 across implementations either.
+  const Requery at_cpu = cpu_at_sampled_direction(tables, qs, mismatched, J.fields, cpu, 0);
+  for (std::size_t j = 0; j < mismatched.size(); ++j) {
+    const std::size_t i = mismatched[j];
+    const Query& q = qs[i];
+    unsigned d = J.fields[i];
+    J.ill[i] = ill[j];
+    Verdict& v = J.verdict[i];
+    v = Verdict::Mismatch;
+    // MEASURED: a lookup near a bin boundary may land in either bin.
+    if (has_measured(set, q.material)) {
+      if ((d & (kEval | kPdf)) && measured_candidate_bins(q.wo, effective_wi(q, q.wi), dims).size() > 1)
+        d &= ~unsigned(kEval | kPdf);
+      if ((d & (kSampleF | kSamplePdf)) && !(d & kSampleWi) &&
+          measured_candidate_bins(q.wo, cpu[i].swi, dims).size() > 1)
+        d &= ~unsigned(kSampleF | kSamplePdf);
+      if (d == 0) {
+        v = Verdict::MeasuredBin;
+        continue;
+      }
+    }
+    // Validity of a near-tangent sample: whether a sampled direction within 1e-3 of the tangent
+    // plane is a sample at all depends on the sign of its tiny z (and on the light-leak rule's
+    // side test), which the renderers' different rounding may flip; such a sample carries a
+    // cosine of that size and so almost no weight. Only the sample's fields are excused: eval
+    // and pdf at the query's wi must still agree.
+    if ((d & kSampleFlags) && !(d & kStatic) && tangent_or_no_sample(cpu[i], gpu[i])) {
+      d &= ~unsigned(kSampleFlags | kSampleF | kSamplePdf | kSampleWi | kSampleEta | kPdfAtSample);
+      if (d == 0) {
+        v = Verdict::Tangent;
+        continue;
+      }
+    }
+    if (at_cpu.index[j] != SIZE_MAX) {
+      const Result& c = at_cpu.answers[at_cpu.index[j]];
+      if (!close(c.f, cpu[i].sf) || !close(c.pdf, cpu[i].spdf)) d &= ~kSampleValues;
+      if (d == 0) {
+        v = Verdict::OtherDirection;
+        continue;
+      }
+    }
+    if (at_gpu.index[j] != SIZE_MAX && !(d & kStatic) &&
+        (d & ~kSampleValues & ~ill[j]) == 0) {
+      // Each differing sample value is what the CPU computes at the GPU's direction.
+      const Result& c = at_gpu.answers[at_gpu.index[j]];
+      const Result& g = gpu[i];
+      if ((!(d & kSampleF) || close(c.f, g.sf)) && (!(d & kSamplePdf) || close(c.pdf, g.spdf)) &&
+          (!(d & kPdfAtSample) || close(c.pdf, g.pdf_at_sample))) {
+        v = Verdict::OtherDirection;
+        continue;
+      }
+    }
+    if ((d & ~ill[j]) == 0 && !(d & kStatic)) {
+      v = Verdict::IllConditioned;
+      continue;
+    }
+    if (!deterministic(set, q.material) && !(d & kStatic)) {
+      v = Verdict::RandomWalk;
+      continue;
+    }
+    J.fields[i] = d;
+  }
+  return J;
 }
 
 }  // namespace basalt::test::bsdf

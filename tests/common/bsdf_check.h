@@ -210,7 +210,8 @@ enum Field : unsigned {
 /// Fields of two answers that disagree beyond \p rel relative / \p abs absolute (Field bits).
 unsigned differences(const Result& a, const Result& b, float rel = 1e-4f, float abs = 1e-6f);
 /// \brief Float conditioning of each query on \p side: the fields whose answer moves beyond the
-///        tolerance when wo, wi (and u0, u1) are perturbed by up to 4 ulps per component (signs and
+///        tolerance when wo, wi (and u0, u1) are perturbed by up to 4 ulps per component (16 draws
+///        seeded by the query's bits, so a verdict does not depend on its batch; signs and
 ///        zeros kept). A mismatch confined to such fields is a property of float arithmetic at that
 ///        input (e.g. a half vector from wo + wi ~ 0 at grazing retro-reflection), not a bug.
 std::vector<unsigned> unstable_fields(Side side, const SceneTables& tables,
@@ -243,5 +244,30 @@ float material_eta(const gpu::Material& m);
 /// \brief wi as the BSDF evaluates it (materials-spec 1.2: wi.z negated when the geometric and
 ///        the shading decisions disagree).
 glm::vec3 effective_wi(const Query& q, glm::vec3 wi);
+
+/// How a query's GPU answer compares with the CPU's (judge).
+enum class Verdict {
+  Agree,           // every field within tolerance (differences() == 0)
+  MeasuredBin,     // a MEASURED lookup near a bin boundary, which may land in either bin
+  Tangent,         // only the sample differs, and each side's sample is none or near-tangent
+  IllConditioned,  // only fields that 4-ulp input perturbations move (unstable_fields) differ
+  OtherDirection,  // only the sample's values differ, explained by the sampled direction
+  RandomWalk,      // a layered random walk or stochastic mix that branched on a last bit
+  Mismatch,        // none of these: a disagreement
+};
+/// Judgements of a batch: per query the verdict, the differing fields (after the excusals that
+/// applied, for a Mismatch) and the ill-conditioned fields (0 where none was needed).
+struct Judgement {
+  std::vector<Verdict> verdict;
+  std::vector<unsigned> fields, ill;
+};
+/// \brief Compares GPU with CPU answers of \p qs (differences: 1e-4 relative or 1e-6 absolute,
+///        directions 1e-4 of their length, flags, lobe count and tags identical), then applies
+///        the excusal rules in order (bsdf_check.cpp judge). \p dims: the MEASURED tables' bins.
+Judgement judge(const MaterialSet& set, const SceneTables& tables, glm::uvec3 dims,
+                const std::vector<Query>& qs, const std::vector<Result>& cpu,
+                const std::vector<Result>& gpu);
+/// A verdict's name, for reports.
+const char* verdict_name(Verdict v);
 
 }  // namespace basalt::test::bsdf

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdlib>
 #include <memory>
@@ -226,6 +227,21 @@ LineFit fit_line(const std::vector<double>& x, const std::vector<double>& y) {
   }
   f.se_slope = std::sqrt(rss / (n - 2) * n / (n * sxx - sx * sx));
   return f;
+}
+
+gpu::ProbeIn env_probe_nudge(gpu::ProbeIn q, int k) {
+  auto ulp_of = [](float a, float b, float c) {
+    const float m = std::max(std::fabs(a), std::max(std::fabs(b), std::fabs(c)));
+    return std::nextafter(m, INFINITY) - m;
+  };
+  const int mag = std::abs(k);
+  const int step = 2 * std::countr_zero(unsigned(mag)) + (k < 0 ? 1 : 0);  // k's place in the list
+  const float sd = float(k) * ulp_of(q.d.x, q.d.y, q.d.z);
+  const float su = float(k) * ulp_of(q.extra.x, q.extra.y, 0.0f);
+  q.d[step % 3] += sd;
+  q.extra.x = std::clamp(q.extra.x - su, 0.0f, 0x1.fffffep-1f);
+  q.extra.y = std::clamp(q.extra.y + su, 0.0f, 0x1.fffffep-1f);
+  return q;
 }
 
 float env_probe_diff(const gpu::ProbeOut& a, const gpu::ProbeOut& b) {

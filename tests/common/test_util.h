@@ -90,6 +90,11 @@ class ProbeRunner {
 /// \brief A PROBE_TEXTURE query with p and uv moved by k ulps of their largest components (p
 ///        by +-k alternately, so that ratios such as atan2(y, x) move too).
 gpu::ProbeIn texture_probe_nudge(gpu::ProbeIn q, int k);
+/// \brief A PROBE_ENV query with d turned and u moved by |k| ulps of their largest components,
+///        for k in {+-1, +-2, +-4, +-8, +-16}: each k moves one component of d (x, y, z in turn
+///        along that list, with k's sign), so that the ten nudges turn d about all three axes
+///        (one fixed pattern can run along an iso-line of the map's (u, v)); u.x by -k, u.y by +k.
+gpu::ProbeIn env_probe_nudge(gpu::ProbeIn q, int k);
 /// \brief Largest relative difference of two PROBE_ENV answers (Le, pdfs, sampled Li and pdf,
 ///        relative to at least 1e-2; the sampled direction weighted 10x); NaN counts as infinite.
 float env_probe_diff(const gpu::ProbeOut& a, const gpu::ProbeOut& b);

@@ -84,38 +84,6 @@ struct KindStats {
               excused_measured = 0, stochastic = 0, failures = 0;
 };
 
-/// CPU answers for mismatched queries asked again with wi = the direction that `from` (one
-/// side's results) sampled.
-struct Requery {
-  std::vector<Result> answers;
-  std::vector<std::size_t> index;  // per mismatched query: its answer, or SIZE_MAX (not asked)
-};
-
-/// Re-asks the CPU, at the sampled direction of `from`, every mismatched query whose sample
-/// f or pdf differs, whose sample is neither specular nor proportional, and whose difference
-/// mask has none of the bits of `skip_if`.
-Requery cpu_at_sampled_direction(const Workload& w, const SceneTables& t,
-                                 const std::vector<std::size_t>& mismatched,
-                                 const std::vector<unsigned>& diff,
-                                 const std::vector<Result>& from, unsigned skip_if) {
-  Requery r;
-  r.index.assign(mismatched.size(), SIZE_MAX);
-  std::vector<Query> qs;
-  for (std::size_t j = 0; j < mismatched.size(); ++j) {
-    const std::size_t i = mismatched[j];
-    const Result& f = from[i];
-    if ((diff[i] & skip_if) || !(diff[i] & (kSampleF | kSamplePdf | kPdfAtSample)) ||
-        !f.sampled() || f.proportional || (f.sflags & gpu::BSDF_SPECULAR))
-      continue;
-    Query q = w.qs[i];
-    q.wi = f.swi;
-    r.index[j] = qs.size();
-    qs.push_back(q);
-  }
-  r.answers = run(Side::Cpu, t, qs);
-  return r;
-}
-
 /// Largest fraction of one kind's queries that the excusal rules may excuse, all rules together.
 constexpr double kMaxExcusedPerKind = 0.02;
 
@@ -129,8 +97,6 @@ void check_agreement(const Workload& w, double max_excused_fraction,
   ASSERT_EQ(gpu.size(), w.qs.size());
 
   int insane = 0;
-  std::vector<std::size_t> mismatched;
-  std::vector<unsigned> diff(w.qs.size(), 0);
   for (std::size_t i = 0; i < w.qs.size(); ++i) {
     std::string why;
     for (int s = 0; s < 2; ++s) {
@@ -140,103 +106,35 @@ void check_agreement(const Workload& w, double max_excused_fraction,
                       << describe(w.set.materials[w.qs[i].material]) << "\n  "
                       << describe(w.qs[i]) << "\n  " << describe(r);
     }
-    diff[i] = differences(cpu[i], gpu[i]);
-    if (diff[i]) mismatched.push_back(i);
   }
   EXPECT_EQ(insane, 0) << "outputs not finite or negative";
 
-  std::vector<Query> mq;
-  std::vector<Result> mr;
-  for (std::size_t i : mismatched) mq.push_back(w.qs[i]), mr.push_back(cpu[i]);
-  const std::vector<unsigned> ill = unstable_fields(Side::Cpu, t, mq, mr);
-  // Sampled value conditioned on the sampled direction: where the two sides' sampled
-  // directions agree (kSampleWi clear) but f or pdf of the sample do not, evaluate the CPU's
-  // bsdf_eval and bsdf_pdf at the GPU's direction. Inside narrow lobes (alpha ~ 1e-3) a
-  // direction difference of a few 1e-7 (the GPU's sin and cos are not correctly rounded)
-  // changes D by ~1e-3 relative; if the CPU's values at the GPU's direction equal the GPU's
-  // sample, both implement the same function and only the direction's rounding differs.
-  const Requery at_gpu = cpu_at_sampled_direction(w, t, mismatched, diff, gpu, kSampleWi);
-  // Self-consistency of the CPU's own sample: a lobe's sample computes f and pdf from the
-  // sampled microfacet normal, bsdf_eval from the normal recomputed from (wo, wi). Where the
-  // two differ by more than the tolerance on the CPU alone (narrow lobes, where D changes at
-  // a rate of 1/alpha^2 per radian), the sample's value is not determined to 1e-4 by float
-  // arithmetic and cannot be compared to 1e-4 across implementations either.
-  const Requery at_cpu = cpu_at_sampled_direction(w, t, mismatched, diff, cpu, 0);
+  // Differences and the excusal rules: bsdf_check.h judge (shared with Stress.Bsdf).
+  const Judgement J = judge(w.set, t, kDims, w.qs, cpu, gpu);
   std::map<std::uint32_t, KindStats> stats;
+  int printed = 0;
   for (std::size_t i = 0; i < w.qs.size(); ++i) {
     KindStats& s = stats[w.kind[i]];
     ++s.queries;
     s.samples += cpu[i].sampled();
-  }
-  int printed = 0;
-  for (std::size_t j = 0; j < mismatched.size(); ++j) {
-    const std::size_t i = mismatched[j];
-    const Query& q = w.qs[i];
-    KindStats& s = stats[w.kind[i]];
-    ++s.raw_mismatch;
-    unsigned d = diff[i];
-    // MEASURED: a lookup near a bin boundary may land in either bin.
-    if (has_measured(w.set, q.material)) {
-      if ((d & (kEval | kPdf)) &&
-          measured_candidate_bins(q.wo, effective_wi(q, q.wi), kDims).size() > 1)
-        d &= ~unsigned(kEval | kPdf);
-      if ((d & (kSampleF | kSamplePdf)) && !(d & kSampleWi) &&
-          measured_candidate_bins(q.wo, cpu[i].swi, kDims).size() > 1)
-        d &= ~unsigned(kSampleF | kSamplePdf);
-      if (d == 0) {
-        ++s.excused_measured;
-        continue;
-      }
+    switch (J.verdict[i]) {
+      case Verdict::Agree: break;
+      case Verdict::MeasuredBin: ++s.excused_measured; break;
+      case Verdict::Tangent: ++s.excused_tangent; break;
+      case Verdict::IllConditioned: ++s.excused_conditioning; break;
+      case Verdict::OtherDirection: ++s.excused_direction; break;
+      case Verdict::RandomWalk: ++s.stochastic; break;
+      case Verdict::Mismatch:
+        // Every unexcused disagreement is printed (at most 3 per kind, 30 in all) and counted;
+        // the acceptance criterion is that there are none.
+        if (++s.failures <= 3 && ++printed <= 30)
+          std::printf("GPU and CPU disagree (field mask %u, ill-conditioned mask %u)\n  material %s\n"
+                      "  %s\n  CPU %s\n  GPU %s\n",
+                      J.fields[i], J.ill[i], describe(w.set.materials[w.qs[i].material]).c_str(),
+                      describe(w.qs[i]).c_str(), describe(cpu[i]).c_str(), describe(gpu[i]).c_str());
+        break;
     }
-    // Validity of a near-tangent sample: whether a sampled direction within 1e-3 of the
-    // tangent plane is a sample at all depends on the sign of its tiny z (and on the light-leak
-    // rule's side test), which the renderers' different rounding (GPU fma contraction) may
-    // flip; the sample itself carries a cosine of that size and so almost no weight. Only the
-    // sample's fields are excused: eval and pdf at the query's wi must still agree.
-    if ((d & kSampleFlags) && !(d & kStatic)) {
-      if (tangent_or_no_sample(cpu[i], gpu[i])) {
-        d &= ~unsigned(kSampleFlags | kSampleF | kSamplePdf | kSampleWi | kSampleEta |
-                       kPdfAtSample);
-        if (d == 0) {
-          ++s.excused_tangent;
-          continue;
-        }
-      }
-    }
-    if (at_cpu.index[j] != SIZE_MAX) {
-      const Result& c = at_cpu.answers[at_cpu.index[j]];
-      if (!close(c.f, cpu[i].sf) || !close(c.pdf, cpu[i].spdf))
-        d &= ~unsigned(kSampleF | kSamplePdf | kPdfAtSample);
-      if (d == 0) {
-        ++s.excused_direction;
-        continue;
-      }
-    }
-    if (at_gpu.index[j] != SIZE_MAX) {
-      const Result& c = at_gpu.answers[at_gpu.index[j]];
-      const Result& g = gpu[i];
-      if (close(c.f, g.sf) && close(c.pdf, g.spdf) && close(c.pdf, g.pdf_at_sample) &&
-          (d & ~unsigned(kSampleF | kSamplePdf | kPdfAtSample) & ~ill[j]) == 0 &&
-          !(d & kStatic)) {
-        ++s.excused_direction;
-        continue;
-      }
-    }
-    if ((d & ~ill[j]) == 0 && !(d & kStatic)) {
-      ++s.excused_conditioning;
-      continue;
-    }
-    if (!deterministic(w.set, q.material) && !(d & kStatic)) {
-      ++s.stochastic;
-      continue;
-    }
-    // Every unexcused disagreement is printed (at most 3 per kind, 30 in all) and counted;
-    // the acceptance criterion is that there are none.
-    if (++s.failures <= 3 && ++printed <= 30)
-      std::printf("GPU and CPU disagree (field mask %u, ill-conditioned mask %u)\n  material %s\n"
-                  "  %s\n  CPU %s\n  GPU %s\n",
-                  d, ill[j], describe(w.set.materials[q.material]).c_str(), describe(q).c_str(),
-                  describe(cpu[i]).c_str(), describe(gpu[i]).c_str());
+    s.raw_mismatch += J.verdict[i] != Verdict::Agree;
   }
   std::size_t total = 0, excused = 0, stochastic = 0, stochastic_queries = 0, failures = 0;
   for (auto& [kind, s] : stats) {

@@ -78,21 +78,6 @@ std::uint32_t image_light(const SceneTables& t) {
   return gpu::INVALID_INDEX;
 }
 
-/// Moves d by k ulps of its largest component and u by k ulps of its largest, with
-/// alternating signs (d.x +, d.y -, d.z +; u.x -, u.y +), so that directions turn (a move of
-/// every component by the same relative amount would leave a unit direction unchanged).
-gpu::ProbeIn nudge(gpu::ProbeIn q, int k) {
-  auto ulp_of = [](float a, float b, float c) {
-    const float m = std::max(std::fabs(a), std::max(std::fabs(b), std::fabs(c)));
-    return std::nextafter(m, INFINITY) - m;
-  };
-  const float sd = float(k) * ulp_of(q.d.x, q.d.y, q.d.z);
-  const float su = float(k) * ulp_of(q.extra.x, q.extra.y, 0.0f);
-  q.d = glm::vec4(q.d.x + sd, q.d.y - sd, q.d.z + sd, 0.0f);
-  q.extra = glm::vec4(std::clamp(q.extra.x - su, 0.0f, 0.99999994f),
-                      std::clamp(q.extra.y + su, 0.0f, 0.99999994f), 0.0f, 0.0f);
-  return q;
-}
 
 
 TEST(EnvmapGpu, ProbeMatchesCpu) {
@@ -126,7 +111,7 @@ TEST(EnvmapGpu, ProbeMatchesCpu) {
     const float d = env_probe_diff(cpu[i], gpu[i]);
     if (!(d > 1e-4f)) continue;
     std::vector<gpu::ProbeIn> near;
-    for (int k : {1, -1, 2, -2, 4, -4, 8, -8, 16, -16}) near.push_back(nudge(q[i], k));
+    for (int k : {1, -1, 2, -2, 4, -4, 8, -8, 16, -16}) near.push_back(env_probe_nudge(q[i], k));
     const auto c2 = probe(Side::Cpu, t, near);
     float spread = 0.0f;
     for (const auto& o : c2) spread = std::max(spread, env_probe_diff(o, cpu[i]));
