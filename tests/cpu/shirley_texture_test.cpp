@@ -30,14 +30,22 @@ namespace {
 
 constexpr double kPiD = 3.14159265358979323846;
 
+/// This process's scratch folder, removed when the process exits (one per pid, so that the
+/// parallel ctest processes of this binary do not share it).
 fs::path temp_dir() {
-  static fs::path d = [] {
+  struct Dir {
     fs::path p = fs::temp_directory_path() / ("basalt_shirley_test_" + std::to_string(::getpid()));
-    fs::remove_all(p);
-    fs::create_directories(p);
-    return p;
-  }();
-  return d;
+    Dir() {
+      fs::remove_all(p);
+      fs::create_directories(p);
+    }
+    ~Dir() {
+      std::error_code ec;
+      fs::remove_all(p, ec);
+    }
+  };
+  static const Dir d;
+  return d.p;
 }
 
 /// Tables of kTexturedHead + \p body (relative files resolve in temp_dir()).
