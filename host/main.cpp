@@ -61,6 +61,7 @@ int run(const Options& opt) {
   basalt::RenderStats st;
   st.scene = opt.scene;
   auto t0 = Clock::now();
+  const Clock::time_point t_start = t0;
   // --mix: how mix materials render (docs/materials.md "Mix"); checked for that mode.
   basalt::MixMode mix = opt.mix == "stochastic" ? basalt::MixMode::Stochastic
                         : opt.mix == "weighted" ? basalt::MixMode::Weighted
@@ -168,7 +169,11 @@ int run(const Options& opt) {
   const std::uint64_t total = std::uint64_t(st.width) * st.height * st.spp;
   // Drawn only on a terminal; its clock starts with the render, after pipeline creation.
   basalt::ProgressBar bar(total, opt.quiet || !::isatty(STDERR_FILENO));
-  auto progress = [&](double f) { bar.update(f); };
+  // Time to the first pass: device, parse, BVH, upload, pipeline and one pass of samples.
+  auto progress = [&](double f) {
+    if (st.seconds_to_first_pass == 0.0) st.seconds_to_first_pass = since(t_start);
+    bar.update(f);
+  };
 
   std::vector<glm::vec4> accum;
   std::size_t validation_errors = 0;

@@ -50,6 +50,13 @@ foreach(device lavapipe cpu)
       fail("stats on ${device}: key ${key} missing: ${jerr}")
     endif()
   endforeach()
+  # The time to the first pass is counted from the start of the command: positive, and not
+  # less than the parse it includes.
+  string(JSON t_first ERROR_VARIABLE jerr GET "${json}" seconds_to_first_pass)
+  string(JSON t_parse GET "${json}" seconds_parse)
+  if(jerr OR NOT t_first GREATER 0 OR NOT t_first GREATER_EQUAL t_parse)
+    fail("stats on ${device}: seconds_to_first_pass '${t_first}' (parse ${t_parse}) ${jerr}")
+  endif()
   string(JSON w GET "${json}" width)
   string(JSON spp GET "${json}" spp)
   string(JSON f0 GET "${json}" features 0)

@@ -52,6 +52,7 @@ std::string to_json(const RenderStats& st) {
   if (!st.shader_variant.empty())
     o << "  \"shader_variant\": " << quote(st.shader_variant) << ",\n";
   o << "  \"seconds_render\": " << number(st.seconds_render) << ",\n";
+  o << "  \"seconds_to_first_pass\": " << number(st.seconds_to_first_pass) << ",\n";
   o << "  \"samples_per_second\": " << number(st.samples_per_second) << ",\n";
   o << "  \"rays_per_second\": " << number(st.rays_per_second) << ",\n";
   o << "  \"rays\": " << st.rays << ",\n";
