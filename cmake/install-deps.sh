@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs basalt's build and test dependencies from Debian 12 packages, only those missing.
 # Idempotent: a second run with everything present does nothing and needs no network.
+# Usage: install-deps.sh [bench]
 set -euo pipefail
 pkgs=(
   build-essential cmake pkg-config
@@ -10,6 +11,9 @@ pkgs=(
   python3-matplotlib
   clang libclang-rt-14-dev
 )
+# `install-deps.sh bench`: also Embree 3, the benchmark's traversal peer (never linked into
+# the renderer or the CPU reference).
+if [ "${1:-}" = bench ]; then pkgs+=(libembree-dev); fi
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

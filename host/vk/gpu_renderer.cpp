@@ -14,6 +14,7 @@
 #include "shaders/probe.spv.h"
 #include "shaders/render.spv.h"
 #include "shaders/render_lean.spv.h"
+#include "shaders/trace.spv.h"
 
 namespace basalt::vkx {
 
@@ -158,6 +159,11 @@ GpuRenderer::~GpuRenderer() {
     destroy_pipeline(probe_);
     ctx_.destroy_buffer(probe_in_);
     ctx_.destroy_buffer(probe_out_);
+  }
+  if (trace_capacity_) {
+    destroy_pipeline(trace_);
+    ctx_.destroy_buffer(trace_in_);
+    ctx_.destroy_buffer(trace_out_);
   }
   for (auto& b : tables_) ctx_.destroy_buffer(b);
 }
@@ -328,6 +334,37 @@ std::vector<gpu::ProbeOut> GpuRenderer::probe(const std::vector<gpu::ProbeIn>& q
   std::vector<gpu::ProbeOut> result(queries.size());
   if (n) std::memcpy(result.data(), probe_out_.mapped, n * sizeof(gpu::ProbeOut));
   return result;
+}
+
+std::vector<gpu::TraceHit> GpuRenderer::trace(const std::vector<gpu::TraceRay>& rays, bool any_hit) {
+  // One dispatch of groups of 64: at most 65535 groups (Vulkan's minimum maxComputeWorkGroupCount).
+  if (rays.size() > std::size_t(65535) * 64)
+    throw std::invalid_argument("GpuRenderer::trace: more than 65535 x 64 rays in one call");
+  if (rays.size() > trace_capacity_ || trace_capacity_ == 0) {
+    if (trace_capacity_) {
+      destroy_pipeline(trace_);
+      ctx_.destroy_buffer(trace_in_);
+      ctx_.destroy_buffer(trace_out_);
+    }
+    const std::size_t cap = std::max<std::size_t>(rays.size(), 1);
+    const auto usage = vk::BufferUsageFlagBits::eStorageBuffer;
+    trace_in_ = ctx_.create_buffer(cap * sizeof(gpu::TraceRay), usage);
+    trace_out_ = ctx_.create_buffer(cap * sizeof(gpu::TraceHit), usage);
+    std::vector<std::pair<std::uint32_t, Buffer*>> bindings;
+    for (std::uint32_t i = 0; i < tables_.size(); ++i) bindings.push_back({i, &tables_[i]});
+    bindings.push_back({BINDING_PROBE_IN, &trace_in_});
+    bindings.push_back({BINDING_PROBE_OUT, &trace_out_});
+    gpu::Globals g;
+    std::memcpy(&g, tables_[BINDING_GLOBALS].mapped, sizeof(g));
+    trace_ = make_pipeline(trace_spv, sizeof(trace_spv), g.features.x, g.features.y, bindings);
+    trace_capacity_ = cap;
+  }
+  if (!rays.empty()) std::memcpy(trace_in_.mapped, rays.data(), rays.size() * sizeof(gpu::TraceRay));
+  const std::uint32_t n = std::uint32_t(rays.size());
+  dispatch(trace_, gpu::PassConstants{0, 1, 0, n, 1, n, any_hit ? 1u : 0u, 0}, n);
+  std::vector<gpu::TraceHit> hits(rays.size());
+  if (n) std::memcpy(hits.data(), trace_out_.mapped, n * sizeof(gpu::TraceHit));
+  return hits;
 }
 
 }  // namespace basalt::vkx

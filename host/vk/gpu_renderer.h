@@ -60,6 +60,10 @@ class GpuRenderer {
   static bool lean_suffices(std::uint32_t features);
   /// \brief Runs shaders/tests/probe.comp over \p queries (GPU twin of basalt::cpu::probe).
   std::vector<gpu::ProbeOut> probe(const std::vector<gpu::ProbeIn>& queries);
+  /// \brief Traces \p rays with shaders/trace.comp (the renderer's traversal, specialised for
+  ///        the scene's features): closest hits, or any hit per ray with \p any_hit; at most
+  ///        65535 x 64 rays a call.
+  std::vector<gpu::TraceHit> trace(const std::vector<gpu::TraceRay>& rays, bool any_hit);
 
   double seconds_upload = 0.0;    // table upload
   double seconds_pipeline = 0.0;  // pipeline creation plus the driver's compile at first use
@@ -91,6 +95,10 @@ class GpuRenderer {
   Pipeline probe_{};
   Buffer probe_in_{}, probe_out_{};
   std::size_t probe_capacity_ = 0;
+  // The trace pipeline and its ray and hit buffers, likewise kept between calls.
+  Pipeline trace_{};
+  Buffer trace_in_{}, trace_out_{};
+  std::size_t trace_capacity_ = 0;
   std::uint64_t rays_ = 0, nonfinite_ = 0;
   double units_per_second_ = 0.0;  // measured pixel-samples per second
 };

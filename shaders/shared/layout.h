@@ -557,7 +557,27 @@ struct ProbeOut {
   uvec4 u;   // x: prim of first hit (or occluded flag), y: prim of second hit
 };
 
+// ---- the trace stage (shaders/trace.comp, GpuRenderer::trace): rays in, hits out ---------
+// One invocation per ray (BINDING_PROBE_IN / BINDING_PROBE_OUT of its own pipeline);
+// PassConstants.pixel_count is the ray count and pad0 = 1 asks for any hit (shadow rays).
+
+/// A ray: origin and tMax, direction (w unused).
+struct TraceRay {
+  vec4 o_tmax;
+  vec4 d;
+};
+
+/// Its hit: t (-1 for a miss), barycentrics b1, b2 of v1, v2, and the prim reference
+/// (INVALID_INDEX for a miss; an any-hit query reports the first hit it finds).
+struct TraceHit {
+  float t;
+  float b1;
+  float b2;
+  uint prim;
+};
+
 #ifdef __cplusplus
+static_assert(sizeof(TraceRay) == 32 && sizeof(TraceHit) == 16, "Trace layout");
 static_assert(sizeof(ProbeIn) == 96 && sizeof(ProbeOut) == 80, "Probe layout");
 static_assert(sizeof(Globals) == 64 + 4 * 16 + 4 * 16 + 6 * 16 + 64 + 3 * 16, "Globals layout");
 static_assert(sizeof(BvhNode) == 32 && offsetof(BvhNode, hi) == 16, "BvhNode layout");

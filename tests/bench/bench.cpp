@@ -4,7 +4,8 @@
 // diffuse-only scenes of the lean render shader against the full one; the render cost of
 // each texture family and each bump family on one scene (texture/<family>/{gpu,cpu},
 // bump/<family>/{gpu,cpu}); and displacement mapping's triangles, build time and table size
-// at several edge-length scales (displacement/edge-scale-<scale x 1000>).
+// at several edge-length scales (displacement/edge-scale-<scale x 1000>); traversal rates of
+// lavapipe, the CPU reference and Embree on the same rays (rays/..., tests/bench/rays.cpp).
 // Run: `cmake --build build --target bench` (5 repetitions, medians reported).
 #include <benchmark/benchmark.h>
 
@@ -15,6 +16,7 @@
 #include <map>
 #include <memory>
 
+#include "bench/rays.h"
 #include "cpu/render.h"
 #include "scene/scene.h"
 #include "scene/tables.h"
@@ -312,6 +314,7 @@ void register_all() {
         ->Unit(benchmark::kMillisecond)
         ->Iterations(1)
         ->UseRealTime();
+  basalt::bench::register_rays(context);
   std::vector<std::string> files;
   for (const auto& e : std::filesystem::directory_iterator("scenes"))
     if (e.path().extension() == ".pbrt") files.push_back(e.path().string());
@@ -347,6 +350,7 @@ int main(int argc, char** argv) {
   register_all();
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
+  basalt::bench::release_rays();
   g_context.reset();
   return 0;
 }
