@@ -155,16 +155,8 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
 GpuRenderer::~GpuRenderer() {
   ctx_.device.waitIdle();
   destroy_pipeline(render_);
-  if (probe_capacity_) {
-    destroy_pipeline(probe_);
-    ctx_.destroy_buffer(probe_in_);
-    ctx_.destroy_buffer(probe_out_);
-  }
-  if (trace_capacity_) {
-    destroy_pipeline(trace_);
-    ctx_.destroy_buffer(trace_in_);
-    ctx_.destroy_buffer(trace_out_);
-  }
+  destroy_stage(probe_);
+  destroy_stage(trace_);
   for (auto& b : tables_) ctx_.destroy_buffer(b);
 }
 
@@ -309,61 +301,54 @@ void GpuRenderer::set_globals(const gpu::Globals& globals) {
   std::memcpy(tables_[BINDING_GLOBALS].mapped, &globals, sizeof(globals));
 }
 
-std::vector<gpu::ProbeOut> GpuRenderer::probe(const std::vector<gpu::ProbeIn>& queries) {
-  if (queries.size() > probe_capacity_ || probe_capacity_ == 0) {
-    if (probe_capacity_) {
-      destroy_pipeline(probe_);
-      ctx_.destroy_buffer(probe_in_);
-      ctx_.destroy_buffer(probe_out_);
-    }
-    const std::size_t cap = std::max<std::size_t>(queries.size(), 1);
+void GpuRenderer::destroy_stage(Stage& s) {
+  if (!s.capacity) return;
+  destroy_pipeline(s.pipeline);
+  ctx_.destroy_buffer(s.in);
+  ctx_.destroy_buffer(s.out);
+  s.capacity = 0;
+}
+
+void GpuRenderer::run_stage(Stage& s, const std::uint32_t* spirv, std::size_t spirv_bytes,
+                            std::uint32_t f1, std::uint32_t f2, std::size_t n, const void* input,
+                            std::size_t in_size, void* output, std::size_t out_size,
+                            std::uint32_t pad0) {
+  // One dispatch of groups of 64: at most 65535 groups (Vulkan's minimum maxComputeWorkGroupCount).
+  if (n > std::size_t(65535) * 64)
+    throw std::invalid_argument("GpuRenderer: more than 65535 x 64 queries in one call");
+  if (n > s.capacity || s.capacity == 0) {
+    destroy_stage(s);
+    const std::size_t cap = std::max<std::size_t>(n, 1);
     const auto usage = vk::BufferUsageFlagBits::eStorageBuffer;
-    probe_in_ = ctx_.create_buffer(cap * sizeof(gpu::ProbeIn), usage);
-    probe_out_ = ctx_.create_buffer(cap * sizeof(gpu::ProbeOut), usage);
+    s.in = ctx_.create_buffer(cap * in_size, usage);
+    s.out = ctx_.create_buffer(cap * out_size, usage);
     std::vector<std::pair<std::uint32_t, Buffer*>> bindings;
     for (std::uint32_t i = 0; i < tables_.size(); ++i) bindings.push_back({i, &tables_[i]});
-    bindings.push_back({BINDING_PROBE_IN, &probe_in_});
-    bindings.push_back({BINDING_PROBE_OUT, &probe_out_});
-    probe_ = make_pipeline(probe_spv, sizeof(probe_spv), 0xffffffffu, 0xffffffffu, bindings);
-    probe_capacity_ = cap;
+    bindings.push_back({BINDING_PROBE_IN, &s.in});
+    bindings.push_back({BINDING_PROBE_OUT, &s.out});
+    s.pipeline = make_pipeline(spirv, spirv_bytes, f1, f2, bindings);
+    s.capacity = cap;
   }
-  if (!queries.empty())
-    std::memcpy(probe_in_.mapped, queries.data(), queries.size() * sizeof(gpu::ProbeIn));
-  const std::uint32_t n = std::uint32_t(queries.size());
-  dispatch(probe_, gpu::PassConstants{0, 1, 0, n, 1, n, 0, 0}, n);
+  if (n) std::memcpy(s.in.mapped, input, n * in_size);
+  const std::uint32_t count = std::uint32_t(n);
+  dispatch(s.pipeline, gpu::PassConstants{0, 1, 0, count, 1, count, pad0, 0}, count);
+  if (n) std::memcpy(output, s.out.mapped, n * out_size);
+}
+
+std::vector<gpu::ProbeOut> GpuRenderer::probe(const std::vector<gpu::ProbeIn>& queries) {
   std::vector<gpu::ProbeOut> result(queries.size());
-  if (n) std::memcpy(result.data(), probe_out_.mapped, n * sizeof(gpu::ProbeOut));
+  run_stage(probe_, probe_spv, sizeof(probe_spv), 0xffffffffu, 0xffffffffu, queries.size(),
+            queries.data(), sizeof(gpu::ProbeIn), result.data(), sizeof(gpu::ProbeOut), 0u);
   return result;
 }
 
 std::vector<gpu::TraceHit> GpuRenderer::trace(const std::vector<gpu::TraceRay>& rays, bool any_hit) {
-  // One dispatch of groups of 64: at most 65535 groups (Vulkan's minimum maxComputeWorkGroupCount).
-  if (rays.size() > std::size_t(65535) * 64)
-    throw std::invalid_argument("GpuRenderer::trace: more than 65535 x 64 rays in one call");
-  if (rays.size() > trace_capacity_ || trace_capacity_ == 0) {
-    if (trace_capacity_) {
-      destroy_pipeline(trace_);
-      ctx_.destroy_buffer(trace_in_);
-      ctx_.destroy_buffer(trace_out_);
-    }
-    const std::size_t cap = std::max<std::size_t>(rays.size(), 1);
-    const auto usage = vk::BufferUsageFlagBits::eStorageBuffer;
-    trace_in_ = ctx_.create_buffer(cap * sizeof(gpu::TraceRay), usage);
-    trace_out_ = ctx_.create_buffer(cap * sizeof(gpu::TraceHit), usage);
-    std::vector<std::pair<std::uint32_t, Buffer*>> bindings;
-    for (std::uint32_t i = 0; i < tables_.size(); ++i) bindings.push_back({i, &tables_[i]});
-    bindings.push_back({BINDING_PROBE_IN, &trace_in_});
-    bindings.push_back({BINDING_PROBE_OUT, &trace_out_});
-    gpu::Globals g;
-    std::memcpy(&g, tables_[BINDING_GLOBALS].mapped, sizeof(g));
-    trace_ = make_pipeline(trace_spv, sizeof(trace_spv), g.features.x, g.features.y, bindings);
-    trace_capacity_ = cap;
-  }
-  if (!rays.empty()) std::memcpy(trace_in_.mapped, rays.data(), rays.size() * sizeof(gpu::TraceRay));
-  const std::uint32_t n = std::uint32_t(rays.size());
-  dispatch(trace_, gpu::PassConstants{0, 1, 0, n, 1, n, any_hit ? 1u : 0u, 0}, n);
+  gpu::Globals g;  // the scene's feature words
+  std::memcpy(&g, tables_[BINDING_GLOBALS].mapped, sizeof(g));
   std::vector<gpu::TraceHit> hits(rays.size());
-  if (n) std::memcpy(hits.data(), trace_out_.mapped, n * sizeof(gpu::TraceHit));
+  run_stage(trace_, trace_spv, sizeof(trace_spv), g.features.x, g.features.y, rays.size(),
+            rays.data(), sizeof(gpu::TraceRay), hits.data(), sizeof(gpu::TraceHit),
+            any_hit ? 1u : 0u);
   return hits;
 }
 

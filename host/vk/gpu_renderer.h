@@ -90,15 +90,23 @@ class GpuRenderer {
   std::uint32_t stride_;  // tile shuffle multiplier, coprime with the tile count
   std::vector<Buffer> tables_;  // indexed by BINDING_*
   Pipeline render_{};
-  // The probe pipeline and its query buffers, built on the first probe() and rebuilt only
-  // when a call needs more room (lavapipe takes seconds to compile the probe shader).
-  Pipeline probe_{};
-  Buffer probe_in_{}, probe_out_{};
-  std::size_t probe_capacity_ = 0;
-  // The trace pipeline and its ray and hit buffers, likewise kept between calls.
-  Pipeline trace_{};
-  Buffer trace_in_{}, trace_out_{};
-  std::size_t trace_capacity_ = 0;
+  // A pipeline over an input and an output buffer of `capacity` entries (BINDING_PROBE_IN,
+  // BINDING_PROBE_OUT), built on the first call and rebuilt only when a call needs more room
+  // (lavapipe takes seconds to compile the probe shader).
+  struct Stage {
+    Pipeline pipeline{};
+    Buffer in{}, out{};
+    std::size_t capacity = 0;
+  };
+  Stage probe_, trace_;  // shaders/tests/probe.comp; shaders/trace.comp
+  /// \brief Makes \p s hold at least \p n entries of \p in_size and \p out_size bytes, with
+  ///        its pipeline from \p spirv specialised for the feature words \p f1, \p f2; copies
+  ///        \p n entries from \p input, dispatches one invocation each with \p pc.pad0 = \p
+  ///        pad0, and copies the n outputs to \p output.
+  void run_stage(Stage& s, const std::uint32_t* spirv, std::size_t spirv_bytes, std::uint32_t f1,
+                 std::uint32_t f2, std::size_t n, const void* input, std::size_t in_size,
+                 void* output, std::size_t out_size, std::uint32_t pad0);
+  void destroy_stage(Stage& s);
   std::uint64_t rays_ = 0, nonfinite_ = 0;
   double units_per_second_ = 0.0;  // measured pixel-samples per second
 };
