@@ -678,7 +678,7 @@ BsdfQuery bsdf_query(Bsdf b, uint op, vec3 wo, vec3 wi, vec3 u, vec3 ng, uvec4 s
       r.bs.f = r.f;
       r.bs.pdf = own_pdf < FLT_MIN ? 0.0 : r.pdf / n;  // pbrt-v3: the lobe's own pdf > 0
     }
-    if (!nonzero(r.bs.f) || r.bs.pdf == 0.0 || r.bs.wi.z == 0.0) r.bs = no_sample();
+    if (!usable(r.bs)) r.bs = no_sample();
   }
   return r;
 }

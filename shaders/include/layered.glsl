@@ -90,11 +90,8 @@ BsdfSample layer_query(Layers y, bool top, vec3 wo, vec3 wi, float uc, vec2 u, b
   return bottom_query(y, wo, wi, u, smp);
 }
 
-// pbrt-v4's validity test of an interface sample inside the walk: !bs || !bs->f || bs->pdf == 0
-// || bs->wi.z == 0.
-bool walk_sample_ok(BsdfSample bs) {
-  return bs.flags != 0u && nonzero(bs.f) && bs.pdf != 0.0 && bs.wi.z != 0.0;
-}
+// pbrt-v4's validity test of an interface sample inside the walk (lobes.glsl usable).
+bool walk_sample_ok(BsdfSample bs) { return usable(bs); }
 
 // pbrt-v4 LayeredBxDF::Tr: transmittance exp(-|dz / w.z|) of a slab of height dz (1 if dz is
 // at most FLT_MIN).

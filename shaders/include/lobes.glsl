@@ -103,6 +103,14 @@ bool same_hemisphere(vec3 a, vec3 b) { return a.z * b.z > 0.0; }
 // True if some component is non-zero (pbrt-v4 bool(SampledSpectrum)).
 bool nonzero(vec3 v) { return v.x != 0.0 || v.y != 0.0 || v.z != 0.0; }
 
+// A valid pbrt-v4 sample (!bs || !bs->f || bs->pdf == 0 || bs->wi.z == 0 rejected), with f
+// and pdf below FLT_MIN counted as 0 (docs/materials-spec.md 1.3: a GPU may or may not flush
+// subnormals, so both sides treat them as 0).
+bool usable(BsdfSample bs) {
+  float fmax = max(abs(bs.f.x), max(abs(bs.f.y), abs(bs.f.z)));
+  return bs.flags != 0u && fmax >= FLT_MIN && abs(bs.pdf) >= FLT_MIN && bs.wi.z != 0.0;
+}
+
 // pbrt-v4 A.5.3 SampleCosineHemisphere (Malley's method over the concentric disk).
 vec3 cosine_hemisphere(vec2 u) {
   vec2 d = concentric_disk(u);
