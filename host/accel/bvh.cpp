@@ -8,6 +8,8 @@
 #include <cmath>
 #include <exception>
 #include <stdexcept>
+#include <string>
+#include <utility>
 #include <thread>
 
 namespace basalt {
@@ -273,6 +275,139 @@ double bvh_sah_cost(std::span<const gpu::BvhNode> nodes, float traversal_cost,
       cost += intersect_cost * static_cast<double>(n.b) * area(n) / root;
   }
   return cost;
+}
+
+namespace {
+
+/// Scale 2^(byte - 127) of an exponent byte in [1, 254].
+float wide_scale(std::uint32_t byte) { return std::bit_cast<float>(byte << 23); }
+
+/// Both decodings of origin + q * scale a shader may compute: separate rounding (q * scale is
+/// exact, so this is one rounding of the sum unless the product overflows) and a fused
+/// multiply-add.
+std::pair<float, float> wide_decode(float origin, std::uint32_t q, float scale) {
+  const float product = float(q) * scale;
+  return {origin + product, std::fma(float(q), scale, origin)};
+}
+
+/// Quantises one axis of up to four child intervals [lo[i], hi[i]] against origin: picks the
+/// smallest exponent byte whose 255 steps reach every hi, and q values whose decodings (both
+/// roundings) stay at or below lo and at or above hi. Returns the exponent byte.
+std::uint32_t quantise_axis(float origin, const float* lo, const float* hi, int count,
+                            std::uint32_t* qlo, std::uint32_t* qhi) {
+  double extent = 0.0;
+  for (int i = 0; i < count; ++i) extent = std::max(extent, double(hi[i]) - double(origin));
+  int e = -126;
+  if (extent > 0.0) e = std::clamp(int(std::ceil(std::log2(extent / 255.0))), -126, 127);
+  for (;; ++e) {
+    const std::uint32_t byte = std::uint32_t(e + 127);
+    const float scale = wide_scale(byte);
+    bool ok = true;
+    for (int i = 0; i < count && ok; ++i) {
+      double f = std::floor((double(lo[i]) - double(origin)) / double(scale));
+      std::uint32_t ql = std::uint32_t(std::clamp(f, 0.0, 255.0));
+      for (;;) {
+        const auto [a, b] = wide_decode(origin, ql, scale);
+        if ((a <= lo[i] && b <= lo[i]) || ql == 0) break;
+        --ql;
+      }
+      double c = std::ceil((double(hi[i]) - double(origin)) / double(scale));
+      std::uint32_t qh = std::uint32_t(std::clamp(c, 0.0, 255.0));
+      for (;;) {
+        const auto [a, b] = wide_decode(origin, qh, scale);
+        if (a >= hi[i] && b >= hi[i]) break;
+        if (qh == 255) {
+          ok = false;  // this exponent's 255 steps fall short after rounding: take the next
+          break;
+        }
+        ++qh;
+      }
+      qlo[i] = ql;
+      qhi[i] = qh;
+    }
+    if (ok || e == 127) return byte;  // at e = 127, 255 steps overflow to infinity: always ok
+  }
+}
+
+}  // namespace
+
+std::vector<gpu::BvhWideNode> build_wide_bvh(std::span<const gpu::BvhNode> nodes) {
+  std::vector<gpu::BvhWideNode> wide;
+  if (nodes.empty()) return wide;
+  // Binary node of each wide node, in creation order (breadth first).
+  std::vector<std::uint32_t> source{0};
+  for (std::size_t w = 0; w < source.size(); ++w) {
+    const gpu::BvhNode& n = nodes[source[w]];
+    std::uint32_t kids[4];
+    int count = 0;
+    if (n.b != 0) {
+      kids[count++] = source[w];  // a root that is a leaf: one leaf child
+    } else {
+      for (std::uint32_t c : {n.a, n.a + 1}) {
+        if (nodes[c].b != 0) {
+          kids[count++] = c;
+        } else {
+          kids[count++] = nodes[c].a;
+          kids[count++] = nodes[c].a + 1;
+        }
+      }
+    }
+    gpu::BvhWideNode out{};
+    glm::vec3 origin(std::numeric_limits<float>::infinity());
+    for (int i = 0; i < count; ++i) origin = glm::min(origin, nodes[kids[i]].lo);
+    out.origin = origin;
+    out.exponents = 0;
+    std::uint32_t qlo[3][4] = {}, qhi[3][4] = {};
+    for (int k = 0; k < 3; ++k) {
+      float lo[4], hi[4];
+      for (int i = 0; i < count; ++i) {
+        lo[i] = nodes[kids[i]].lo[k];
+        hi[i] = nodes[kids[i]].hi[k];
+      }
+      out.exponents |= quantise_axis(origin[k], lo, hi, count, qlo[k], qhi[k]) << (8 * k);
+    }
+    for (int i = 0; i < 4; ++i) {
+      std::uint32_t child = gpu::INVALID_INDEX;
+      std::uint32_t l[3] = {255, 255, 255}, h[3] = {0, 0, 0};  // empty slot: lo > hi
+      if (i < count) {
+        const gpu::BvhNode& c = nodes[kids[i]];
+        for (int k = 0; k < 3; ++k) {
+          l[k] = qlo[k][i];
+          h[k] = qhi[k][i];
+        }
+        if (c.b != 0) {
+          if (c.b > gpu::BVH_WIDE_LEAF_MAX || c.a + c.b > gpu::BVH_WIDE_FIRST_LIMIT)
+            throw std::invalid_argument("BVH leaf of " + std::to_string(c.b) + " prims at " +
+                                        std::to_string(c.a) +
+                                        ": the GPU's wide BVH holds at most 32 prims a leaf, "
+                                        "starting below 2^26");
+          child = gpu::BVH_WIDE_LEAF | (c.b - 1) << 26 | c.a;
+        } else {
+          child = std::uint32_t(source.size());
+          source.push_back(kids[i]);
+        }
+      }
+      out.qlo[0] |= l[0] << (8 * i);
+      out.qlo[1] |= l[1] << (8 * i);
+      out.qlo[2] |= l[2] << (8 * i);
+      out.qhi[0] |= h[0] << (8 * i);
+      out.qhi[1] |= h[1] << (8 * i);
+      out.qhi[2] |= h[2] << (8 * i);
+      out.child[i] = child;
+    }
+    wide.push_back(out);
+  }
+  return wide;
+}
+
+Aabb wide_child_box(const gpu::BvhWideNode& n, int i) {
+  Aabb b;
+  for (int k = 0; k < 3; ++k) {
+    const float scale = wide_scale((n.exponents >> (8 * k)) & 0xffu);
+    b.lo[k] = wide_decode(n.origin[k], (n.qlo[k] >> (8 * i)) & 0xffu, scale).first;
+    b.hi[k] = wide_decode(n.origin[k], (n.qhi[k] >> (8 * i)) & 0xffu, scale).first;
+  }
+  return b;
 }
 
 }  // namespace basalt

@@ -92,4 +92,18 @@ double bvh_sah_cost(std::span<const gpu::BvhNode> nodes,
                     float traversal_cost = kBvhTraversalCost,
                     float intersect_cost = kBvhIntersectCost);
 
+/// \brief The GPU's wide BVH (gpu::BvhWideNode, docs/path-spec.md 3.1): each node holds the
+/// up to four grandchildren of a binary interior node (a child that is a leaf stays one), so a
+/// wide level spans two binary levels; child boxes are quantised to 8 bits an axis and rounded
+/// outwards, checked with both the rounding of origin + q * scale and that of a fused
+/// multiply-add, so the box a shader decodes contains the binary box either way. Node 0 is the
+/// root; a binary tree that is one leaf gives a root with one leaf child. Empty for no nodes.
+/// \throws std::invalid_argument for a leaf of more than BVH_WIDE_LEAF_MAX prims or a leaf
+/// starting at or beyond BVH_WIDE_FIRST_LIMIT.
+std::vector<gpu::BvhWideNode> build_wide_bvh(std::span<const gpu::BvhNode> nodes);
+
+/// \brief Box of child \p i of wide node \p n as decoded with separate multiply and add
+/// (lo > hi for an empty slot).
+Aabb wide_child_box(const gpu::BvhWideNode& n, int i);
+
 }  // namespace basalt

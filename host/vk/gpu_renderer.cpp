@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "accel/bvh.h"
 #include "scene/samplers.h"
 #include "shaders/probe.spv.h"
 #include "shaders/render.spv.h"
@@ -40,7 +41,7 @@ std::uint32_t tile_stride(std::uint32_t n) {
   return 1;
 }
 
-const char* kTableNames[] = {"globals", "BVH nodes", "primitive refs", "triangles",
+const char* kTableNames[] = {"globals", "wide BVH nodes", "primitive refs", "triangles",
                              "vertices", "meshes",    "spheres",        "materials",
                              "lights",   "light cdf", "filter table",   "accumulation", "counters",
                              "measured BRDF", "textures",   "image levels", "texels",
@@ -99,9 +100,11 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
                               : 0;
     return Src{n ? t.texels.data() + first : nullptr, std::max<std::size_t>(16, n * sizeof(float))};
   };
+  // The GPU traverses the wide BVH (docs/path-spec.md 3.1); the binary nodes stay on the host.
+  const std::vector<gpu::BvhWideNode> wide = build_wide_bvh(t.nodes);
   const Src src[BINDING_COUNT] = {
       {&t.globals, sizeof(t.globals)},
-      {t.nodes.data(), t.nodes.size() * sizeof(gpu::BvhNode)},
+      optional_table(wide),
       {t.prim_refs.data(), t.prim_refs.size() * sizeof(std::uint32_t)},
       {t.triangles.data(), t.triangles.size() * sizeof(gpu::Triangle)},
       {t.vertices.data(), t.vertices.size() * sizeof(gpu::Vertex)},

@@ -20,7 +20,9 @@ layout(std430, set = 0, binding = BINDING_GLOBALS) restrict readonly buffer Glob
 // A read-only scene table: binding BINDING_<b>, block <Block>, array <name> of <T>.
 #define BASALT_TABLE(b, Block, T, name) \
   layout(std430, set = 0, binding = BINDING_##b) restrict readonly buffer Block { T name[]; }
-BASALT_TABLE(BVH_NODES, BvhNodeBuffer, BvhNode, bvh_nodes);
+// Wide BVH nodes (BvhWideNode, docs/path-spec.md 3.1), read as four uvec4 each: lavapipe turns
+// every storage-buffer load into a loop over its lanes, so wide loads beat scalar ones.
+BASALT_TABLE(BVH_NODES, BvhNodeBuffer, uvec4, bvh_words);
 BASALT_TABLE(PRIM_REFS, PrimRefBuffer, uint, prim_refs);
 BASALT_TABLE(TRIANGLES, TriangleBuffer, Triangle, triangles);
 BASALT_TABLE(VERTICES, VertexBuffer, Vertex, vertices);

@@ -34,27 +34,47 @@ const float SLAB_EXIT_SCALE = 1.0 + 2.0 * (3.0 * 5.9604644775390625e-8) /
 // kx = kz + 1, ky = kx + 1 modulo 3).
 vec3 permute_kz(vec3 v, int kz) { return kz == 0 ? v.yzx : (kz == 1 ? v.zxy : v); }
 
+// Per-ray constants of the watertight triangle test (Woop, Benthin & Wald, JCGT 2(1) 2013,
+// section 3): the axis kz of the largest |d| (pbrt-v4 6.5.3 MaxComponentIndex), the permuted
+// origin and the shear. pbrt-v4 computes them per triangle; the values do not depend on the
+// triangle, so computing them once per ray gives the same bits.
+struct RayTri {
+  vec3 o;      // origin, permuted
+  int kz;
+  vec3 shear;  // sx, sy, sz
+};
+
+// The triangle test's per-ray constants of ray.
+RayTri ray_tri(Ray ray) {
+  vec3 ad = abs(ray.d);
+  int kz = ad.x > ad.y ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
+  precise vec3 d = permute_kz(ray.d, kz);
+  precise float sx = -d.x / d.z;
+  precise float sy = -d.y / d.z;
+  precise float sz = 1.0 / d.z;
+  return RayTri(permute_kz(ray.o, kz), kz, vec3(sx, sy, sz));
+}
+
 // Watertight ray-triangle test of Woop, Benthin & Wald (JCGT 2(1) 2013) as pbrt-v4 6.5.3
 // Triangle::Intersect, without the double-precision fallback and the conservative t bound.
 // Edge functions are plain products marked precise (no fma contraction, same rounding as
 // the CPU reference compiled with -ffp-contract=off), which keeps shared edges watertight.
 // Returns t in (0, tmax) with barycentrics (b1, b2), or -1 for a miss.
-float intersect_triangle(Ray ray, uint tri, out vec2 b12) {
+float intersect_triangle(Ray ray, RayTri rt, uint tri, out vec2 b12) {
   b12 = vec2(0.0);
   Triangle T = triangles[tri];
   vec3 p0 = vertices[T.v0].p_u.xyz;
   vec3 p1 = vertices[T.v1].p_u.xyz;
   vec3 p2 = vertices[T.v2].p_u.xyz;
-  vec3 ad = abs(ray.d);
-  int kz = ad.x > ad.y ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
-  precise vec3 d = permute_kz(ray.d, kz);
-  precise vec3 p0t = permute_kz(p0 - ray.o, kz);
-  precise vec3 p1t = permute_kz(p1 - ray.o, kz);
-  precise vec3 p2t = permute_kz(p2 - ray.o, kz);
+  // Translate to the ray origin (permuting first and subtracting the permuted origin is the
+  // same arithmetic per component).
+  precise vec3 p0t = permute_kz(p0, rt.kz) - rt.o;
+  precise vec3 p1t = permute_kz(p1, rt.kz) - rt.o;
+  precise vec3 p2t = permute_kz(p2, rt.kz) - rt.o;
   // Shear so that the ray points along +z.
-  precise float sx = -d.x / d.z;
-  precise float sy = -d.y / d.z;
-  precise float sz = 1.0 / d.z;
+  precise float sx = rt.shear.x;
+  precise float sy = rt.shear.y;
+  precise float sz = rt.shear.z;
   p0t.x += sx * p0t.z;
   p0t.y += sy * p0t.z;
   p1t.x += sx * p1t.z;
@@ -114,24 +134,21 @@ float intersect_sphere(Ray ray, uint sph) {
 }
 
 // Tests the ray against one prim reference; t in (0, tmax) or -1, barycentrics b1, b2.
-float intersect_prim(Ray ray, uint ref, out vec2 b12) {
+float intersect_prim(Ray ray, RayTri rt, uint ref, out vec2 b12) {
   b12 = vec2(0.0);
   if ((ref & PRIM_SPHERE_BIT) != 0u) {
     if ((FEATURES & FEATURE_SPHERES) != 0u) return intersect_sphere(ray, ref & PRIM_INDEX_MASK);
   } else if ((FEATURES & FEATURE_TRIANGLES) != 0u) {
-    return intersect_triangle(ray, ref, b12);
+    return intersect_triangle(ray, rt, ref, b12);
   }
   return -1.0;
 }
 
-// Slab test of pbrt-v4 6.1.2 Bounds3::IntersectP with a precomputed inverse direction: the
-// exit distance is scaled by 1 + 2 gamma(3); inv has no infinities (see bvh_trace), so no
-// 0 * inf. An inverted box (lo > hi) never hits. Accepts entry distances up to t_limit
-// inclusive (closest-hit ties are decided by prim reference). Returns the entry distance
-// (>= 0), or -1 for a miss.
-float slab_test(uint node, vec3 o, vec3 inv, bvec3 neg, float t_limit) {
-  vec3 lo = bvh_nodes[node].lo;
-  vec3 hi = bvh_nodes[node].hi;
+// Slab test of pbrt-v4 6.1.2 Bounds3::IntersectP with a precomputed inverse direction on the
+// box lo, hi: the exit distance is scaled by 1 + 2 gamma(3); inv has no infinities (see
+// bvh_trace), so no 0 * inf. Accepts entry distances up to t_limit inclusive (closest-hit ties
+// are decided by prim reference). Returns the entry distance (>= 0), or -1 for a miss.
+float slab_test(vec3 lo, vec3 hi, vec3 o, vec3 inv, bvec3 neg, float t_limit) {
   vec3 tn = (mix(lo, hi, neg) - o) * inv;
   vec3 tf = (mix(hi, lo, neg) - o) * inv * SLAB_EXIT_SCALE;
   float enter = max(max(tn.x, tn.y), max(tn.z, 0.0));
@@ -139,10 +156,36 @@ float slab_test(uint node, vec3 o, vec3 inv, bvec3 neg, float t_limit) {
   return enter <= exit ? enter : -1.0;
 }
 
-// Stack-based BVH traversal, nearer child first. Closest hit: the smallest t, on equal t the
-// smaller prim reference, independent of traversal order (docs/path-spec.md section 3):
-// every primitive is tested against the ray's own tmax and compared with the best hit
-// afterwards. any_hit: returns at the first hit in (0, tmax) (shadow rays).
+// Orders two (key, item) pairs by key (a sorting-network step).
+void bvh_order(inout float ka, inout uint ia, inout float kb, inout uint ib) {
+  bool swap = kb < ka;
+  float k = ka;
+  uint i = ia;
+  ka = swap ? kb : ka;
+  ia = swap ? ib : ia;
+  kb = swap ? k : kb;
+  ib = swap ? i : ib;
+}
+
+// Entry distance of child c of a wide node against the ray (-1: missed or an empty slot):
+// the box origin + q * scale per axis, q the child's bytes of qlo and qhi (docs/path-spec.md
+// 3.1; the host rounds q outwards for this decoding with or without a fused multiply-add).
+float bvh_child_test(uvec4 w0, uvec4 qlo, uvec4 qhi, uint child, uint c, vec3 o, vec3 inv,
+                     bvec3 neg, float t_limit) {
+  vec3 origin = uintBitsToFloat(w0.xyz);
+  vec3 scale = uintBitsToFloat(uvec3(w0.w & 0xffu, (w0.w >> 8) & 0xffu, (w0.w >> 16) & 0xffu) << 23);
+  vec3 lo = origin + vec3((qlo.xyz >> (8u * c)) & 0xffu) * scale;
+  vec3 hi = origin + vec3((qhi.xyz >> (8u * c)) & 0xffu) * scale;
+  float t = slab_test(lo, hi, o, inv, neg, t_limit);
+  return child == INVALID_INDEX ? -1.0 : t;
+}
+
+// Stack-based traversal of the wide BVH (docs/path-spec.md 3.1): at a node all four child
+// boxes are tested, the hit children sorted by entry distance, the nearest visited next and
+// the others pushed far to near. Closest hit: the smallest t, on equal t the smaller prim
+// reference, independent of traversal order (docs/path-spec.md section 3): every primitive is
+// tested against the ray's own tmax and compared with the best hit afterwards. any_hit:
+// returns at the first hit in (0, tmax) (shadow rays).
 Hit bvh_trace(Ray ray, bool any_hit) {
   Hit best = Hit(ray.tmax, 0.0, 0.0, INVALID_INDEX);
   // pbrt-v4 6.1.2: |d| < 1e-20 becomes copysign(1e-20, d) so that inv stays finite.
@@ -151,60 +194,76 @@ Hit bvh_trace(Ray ray, bool any_hit) {
                  abs(ray.d.z) < 1e-20 ? copysign_pos(1e-20, ray.d.z) : ray.d.z);
   vec3 inv = 1.0 / dd;
   bvec3 neg = lessThan(inv, vec3(0.0));
-  uint stack_node[BVH_STACK_SIZE];
-  float stack_t[BVH_STACK_SIZE];
+  RayTri rt = ray_tri(ray);
+  uint stack_item[BVH_WIDE_STACK];
+  float stack_t[BVH_WIDE_STACK];
   int sp = 0;
-  uint node = 0u;
   // A scene without primitives has no nodes (host/accel/bvh.h); its table is bound as a
   // 16-byte buffer, shorter than one node.
-  if (bvh_nodes.length() == 0 || slab_test(node, ray.o, inv, neg, ray.tmax) < 0.0) {
-    best.t = -1.0;
-    return best;
-  }
-  while (true) {
-    uint a = bvh_nodes[node].a;
-    uint b = bvh_nodes[node].b;
-    bool descend = false;
-    if (b == 0u) {
-      // Interior: children at a and a + 1.
-      float t0 = slab_test(a, ray.o, inv, neg, best.t);
-      float t1 = slab_test(a + 1u, ray.o, inv, neg, best.t);
-      if (t0 >= 0.0 && t1 >= 0.0) {
-        bool second_first = t1 < t0;
-        if (sp < BVH_STACK_SIZE) {
-          stack_node[sp] = second_first ? a : a + 1u;
-          stack_t[sp] = second_first ? t0 : t1;
-          ++sp;
-        }
-        node = second_first ? a + 1u : a;
-        descend = true;
-      } else if (t0 >= 0.0 || t1 >= 0.0) {
-        node = t0 >= 0.0 ? a : a + 1u;
-        descend = true;
+  uint item = bvh_words.length() < 4 ? INVALID_INDEX : 0u;
+  const float FAR = uintBitsToFloat(0x7f800000u);
+  while (item != INVALID_INDEX) {
+    if ((item & BVH_WIDE_LEAF) == 0u) {
+      // A wide node: test its four children.
+      uvec4 w0 = bvh_words[4u * item];
+      uvec4 qlo = bvh_words[4u * item + 1u];
+      uvec4 qhi = bvh_words[4u * item + 2u];
+      uvec4 ch = bvh_words[4u * item + 3u];
+      float k0 = bvh_child_test(w0, qlo, qhi, ch.x, 0u, ray.o, inv, neg, best.t);
+      float k1 = bvh_child_test(w0, qlo, qhi, ch.y, 1u, ray.o, inv, neg, best.t);
+      float k2 = bvh_child_test(w0, qlo, qhi, ch.z, 2u, ray.o, inv, neg, best.t);
+      float k3 = bvh_child_test(w0, qlo, qhi, ch.w, 3u, ray.o, inv, neg, best.t);
+      k0 = k0 < 0.0 ? FAR : k0;
+      k1 = k1 < 0.0 ? FAR : k1;
+      k2 = k2 < 0.0 ? FAR : k2;
+      k3 = k3 < 0.0 ? FAR : k3;
+      uint i0 = ch.x, i1 = ch.y, i2 = ch.z, i3 = ch.w;
+      bvh_order(k0, i0, k1, i1);
+      bvh_order(k2, i2, k3, i3);
+      bvh_order(k0, i0, k2, i2);
+      bvh_order(k1, i1, k3, i3);
+      bvh_order(k1, i1, k2, i2);
+      if (k3 < FAR && sp < int(BVH_WIDE_STACK)) {
+        stack_item[sp] = i3;
+        stack_t[sp] = k3;
+        ++sp;
+      }
+      if (k2 < FAR && sp < int(BVH_WIDE_STACK)) {
+        stack_item[sp] = i2;
+        stack_t[sp] = k2;
+        ++sp;
+      }
+      if (k1 < FAR && sp < int(BVH_WIDE_STACK)) {
+        stack_item[sp] = i1;
+        stack_t[sp] = k1;
+        ++sp;
+      }
+      if (k0 < FAR) {
+        item = i0;
+        continue;
       }
     } else {
-      // Leaf over prim_refs[a, a + b).
-      for (uint k = a; k < a + b; ++k) {
+      // A leaf over prim_refs[first, first + count).
+      uint first = item & (BVH_WIDE_FIRST_LIMIT - 1u);
+      uint end = first + ((item >> 26) & 31u) + 1u;
+      for (uint k = first; k < end; ++k) {
         uint ref = prim_refs[k];
         vec2 b12;
-        float t = intersect_prim(ray, ref, b12);
+        float t = intersect_prim(ray, rt, ref, b12);
         if (t > 0.0 && (t < best.t || (t == best.t && ref < best.prim))) {
           best = Hit(t, b12.x, b12.y, ref);
           if (any_hit) return best;
         }
       }
     }
-    if (!descend) {
-      // Pop, skipping subtrees that start beyond the best hit so far.
-      node = INVALID_INDEX;
-      while (sp > 0) {
-        --sp;
-        if (stack_t[sp] <= best.t) {
-          node = stack_node[sp];
-          break;
-        }
+    // Pop, skipping entries that start beyond the best hit so far.
+    item = INVALID_INDEX;
+    while (sp > 0) {
+      --sp;
+      if (stack_t[sp] <= best.t) {
+        item = stack_item[sp];
+        break;
       }
-      if (node == INVALID_INDEX) break;
     }
   }
   if (best.prim == INVALID_INDEX) best.t = -1.0;

@@ -382,6 +382,24 @@ struct BvhNode {
   uint b;
 };
 
+/// Wide BVH node of the GPU's traversal (docs/path-spec.md 3.1): the binary BVH collapsed to
+/// four children a node (the grandchildren of a binary node), each child's box quantised to 8
+/// bits an axis against the node: child i spans origin + q * 2^(e - 127) per axis, q = byte i
+/// of qlo / qhi, e = byte k of exponents for axis k. Boxes are rounded outwards, so they contain
+/// the binary boxes. child[i]: a wide node index, BVH_WIDE_LEAF | (count - 1) << 26 | first
+/// prim_refs entry, or INVALID_INDEX for an empty slot. Built by build_wide_bvh (host/accel).
+struct BvhWideNode {
+  vec3 origin;
+  uint exponents;
+  uvec4 qlo;  // x, y, z: per axis, byte i = child i; w: 0
+  uvec4 qhi;
+  uvec4 child;
+};
+BASALT_CONST uint BVH_WIDE_LEAF = 0x80000000u;
+BASALT_CONST uint BVH_WIDE_LEAF_MAX = 32u;             // prims a wide leaf holds at most
+BASALT_CONST uint BVH_WIDE_FIRST_LIMIT = 0x4000000u;   // first prim_refs entry < 2^26
+BASALT_CONST uint BVH_WIDE_STACK = 96u;  // 3 entries a level, at most 32 levels (bvh.h)
+
 /// Triangle: vertex indices into the vertex table and the mesh it belongs to.
 struct Triangle {
   uint v0, v1, v2;
@@ -581,6 +599,7 @@ static_assert(sizeof(TraceRay) == 32 && sizeof(TraceHit) == 16, "Trace layout");
 static_assert(sizeof(ProbeIn) == 96 && sizeof(ProbeOut) == 80, "Probe layout");
 static_assert(sizeof(Globals) == 64 + 4 * 16 + 4 * 16 + 6 * 16 + 64 + 3 * 16, "Globals layout");
 static_assert(sizeof(BvhNode) == 32 && offsetof(BvhNode, hi) == 16, "BvhNode layout");
+static_assert(sizeof(BvhWideNode) == 64 && offsetof(BvhWideNode, qlo) == 16, "BvhWideNode layout");
 static_assert(sizeof(Triangle) == 16, "Triangle layout");
 static_assert(sizeof(Vertex) == 32, "Vertex layout");
 static_assert(sizeof(Mesh) == 16, "Mesh layout");

@@ -3,11 +3,14 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <optional>
 #include <random>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "accel/bvh.h"
@@ -326,6 +329,149 @@ TEST(Bvh, SahCostOfLeafIsItsCount) {
   Bvh bvh = build_bvh(prims);
   ASSERT_EQ(bvh.nodes.size(), 1u);
   EXPECT_DOUBLE_EQ(bvh_sah_cost(bvh.nodes), 3.0);
+}
+
+// The wide BVH (build_wide_bvh): the GPU's tree, so its own oracle (the twins' comparison cannot
+// see a box that is too small if both sides used it; the CPU reference uses the binary tree).
+// Walks it from the root and checks: every wide node reached once; every prim_order slot in
+// exactly one leaf; every child's decoded box, with separate or fused rounding, contains the
+// boxes of all prims below it; a wide level spans two binary levels (depth <= 32, so the
+// shader's stack of BVH_WIDE_STACK = 3 x 32 entries suffices); and the quantisation is tight
+// (each decoded bound within two steps of the exact one). Sets growth to the total decoded
+// surface area over the exact children's.
+void check_wide(const Bvh& bvh, const std::vector<Aabb>& prims, double& growth) {
+  growth = 1.0;
+  const std::vector<gpu::BvhWideNode> wide = build_wide_bvh(bvh.nodes);
+  if (bvh.nodes.empty()) {
+    EXPECT_TRUE(wide.empty());
+    return;
+  }
+  std::vector<int> visited(wide.size(), 0), covered(prims.size(), 0);
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> stack{{0u, 1u}};
+  double area_wide = 0.0, area_exact = 0.0;
+  std::uint32_t max_depth = 0;
+  while (!stack.empty()) {
+    const auto [w, depth] = stack.back();
+    stack.pop_back();
+    max_depth = std::max(max_depth, depth);
+    ++visited[w];
+    const gpu::BvhWideNode& n = wide[w];
+    for (int i = 0; i < 4; ++i) {
+      const std::uint32_t c = n.child[i];
+      if (c == gpu::INVALID_INDEX) continue;
+      // The prims below child i.
+      Aabb exact;
+      std::vector<std::uint32_t> below;
+      std::vector<std::uint32_t> todo{c};
+      while (!todo.empty()) {
+        const std::uint32_t x = todo.back();
+        todo.pop_back();
+        if (x & gpu::BVH_WIDE_LEAF) {
+          const std::uint32_t first = x & (gpu::BVH_WIDE_FIRST_LIMIT - 1u);
+          const std::uint32_t count = ((x >> 26) & 31u) + 1u;
+          for (std::uint32_t k = first; k < first + count; ++k) below.push_back(k);
+        } else {
+          for (int j = 0; j < 4; ++j)
+            if (wide[x].child[j] != gpu::INVALID_INDEX) todo.push_back(wide[x].child[j]);
+        }
+      }
+      for (std::uint32_t k : below) {
+        ASSERT_LT(k, prims.size());
+        exact.extend(prims[bvh.prim_order[k]]);
+      }
+      const Aabb box = wide_child_box(n, i);
+      for (int k = 0; k < 3; ++k) {
+        const float scale = std::bit_cast<float>(((n.exponents >> (8 * k)) & 0xffu) << 23);
+        const float qlo = float((n.qlo[k] >> (8 * i)) & 0xffu);
+        const float qhi = float((n.qhi[k] >> (8 * i)) & 0xffu);
+        const float fused_lo = std::fma(qlo, scale, n.origin[k]);
+        const float fused_hi = std::fma(qhi, scale, n.origin[k]);
+        EXPECT_LE(box.lo[k], exact.lo[k]) << "node " << w << " child " << i << " axis " << k;
+        EXPECT_GE(box.hi[k], exact.hi[k]) << "node " << w << " child " << i << " axis " << k;
+        EXPECT_LE(fused_lo, exact.lo[k]) << "node " << w << " child " << i << " axis " << k;
+        EXPECT_GE(fused_hi, exact.hi[k]) << "node " << w << " child " << i << " axis " << k;
+        if (std::isfinite(box.hi[k])) {
+          EXPECT_GE(box.lo[k], exact.lo[k] - 2.0f * scale) << "node " << w << " child " << i;
+          EXPECT_LE(box.hi[k], exact.hi[k] + 2.0f * scale) << "node " << w << " child " << i;
+        }
+      }
+      area_wide += box.area();
+      area_exact += exact.area();
+      if (c & gpu::BVH_WIDE_LEAF) {
+        for (std::uint32_t k : below) ++covered[k];
+      } else {
+        ASSERT_LT(c, wide.size());
+        stack.push_back({c, depth + 1});
+      }
+    }
+  }
+  for (std::size_t i = 0; i < visited.size(); ++i) EXPECT_EQ(visited[i], 1) << "wide node " << i;
+  for (std::size_t k = 0; k < covered.size(); ++k) EXPECT_EQ(covered[k], 1) << "slot " << k;
+  EXPECT_LE(max_depth, (bvh.depth + 1) / 2 + 1);
+  EXPECT_LE(3 * max_depth, gpu::BVH_WIDE_STACK);
+  growth = area_exact > 0.0 ? area_wide / area_exact : 1.0;
+}
+
+TEST(WideBvh, ContainsEveryPrimAndIsTight) {
+  for (std::size_t n : {1u, 2u, 3u, 5u, 9u, 100u, 5000u}) {
+    SCOPED_TRACE(n);
+    std::vector<Aabb> prims = bounds_of(random_triangles(n, 11 + static_cast<std::uint32_t>(n)));
+    double growth = 0.0;
+    check_wide(build_bvh(prims), prims, growth);
+    // 8-bit boxes: the decoded boxes' area is within a few percent of the exact ones.
+    if (n >= 100) {
+      EXPECT_LT(growth, 1.1);
+    }
+  }
+  std::vector<Aabb> none;
+  double growth = 0.0;
+  check_wide(build_bvh(none), none, growth);
+}
+
+TEST(WideBvh, HugeTinyAndExtremeScales) {
+  // Boxes spaced 2^0 .. 2^119 apart (each wide node spans up to 2^119), a mix of 1e-30 boxes at
+  // the origin and 1e30 walls, and boxes at +-3e38 (the decoded upper bound may overflow to
+  // infinity, which still contains them).
+  std::vector<Aabb> exp_spaced, mixed, extreme;
+  for (int i = 0; i < 120; ++i) {
+    Aabb b;
+    b.lo = glm::vec3(std::ldexp(1.0f, i), 0, 0);
+    b.hi = glm::vec3(std::ldexp(1.0f, i), 1, 1);
+    exp_spaced.push_back(b);
+  }
+  std::vector<Tri> tiny = random_triangles(200, 3, 1.0f);
+  for (std::size_t i = 0; i < tiny.size(); ++i) {
+    const float s = i % 2 ? 1e-30f : 1e30f;
+    Aabb b = bounds_of(tiny[i]);
+    b.lo *= s;
+    b.hi *= s;
+    mixed.push_back(b);
+  }
+  for (int i = 0; i < 50; ++i) {
+    Aabb b;
+    const float x = (i % 2 ? 3e38f : -3e38f) * (1.0f - 0.001f * float(i));
+    b.lo = glm::vec3(x, -3e38f, float(i));
+    b.hi = glm::vec3(x, 3.4e38f, float(i) + 1e-30f);
+    extreme.push_back(b);
+  }
+  double growth = 0.0;
+  for (auto* prims : {&exp_spaced, &mixed, &extreme}) check_wide(build_bvh(*prims), *prims, growth);
+}
+
+TEST(WideBvh, OversizedLeafIsAClearError) {
+  std::vector<gpu::BvhNode> nodes(1);
+  nodes[0].lo = glm::vec3(0.0f);
+  nodes[0].hi = glm::vec3(1.0f);
+  nodes[0].a = 0;
+  nodes[0].b = gpu::BVH_WIDE_LEAF_MAX + 1;
+  try {
+    build_wide_bvh(nodes);
+    ADD_FAILURE() << "no error for a leaf of 33 prims";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("at most 32 prims a leaf"), std::string::npos) << e.what();
+  }
+  nodes[0].b = gpu::BVH_WIDE_LEAF_MAX;
+  EXPECT_EQ(build_wide_bvh(nodes).size(), 1u);
 }
 
 }  // namespace
