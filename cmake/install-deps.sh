@@ -6,7 +6,7 @@ set -euo pipefail
 pkgs=(
   build-essential cmake pkg-config
   libvulkan-dev vulkan-tools mesa-vulkan-drivers vulkan-validationlayers
-  glslang-tools libglm-dev libopenexr-dev libpng-dev libstb-dev
+  glslang-tools spirv-tools libglm-dev libopenexr-dev libpng-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev
   python3-matplotlib
   clang libclang-rt-14-dev

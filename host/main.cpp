@@ -196,6 +196,7 @@ int run(const Options& opt) {
             : basalt::vkx::GpuRenderer(*ctx, tables);
     st.seconds_upload = gpu.seconds_upload;
     st.seconds_pipeline = gpu.seconds_pipeline;
+    st.seconds_specialise = gpu.seconds_specialise;
     st.shader_variant = gpu.variant;
     t0 = Clock::now();
     bar.restart();

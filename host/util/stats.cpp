@@ -49,6 +49,8 @@ std::string to_json(const RenderStats& st) {
   o << "  \"seconds_bvh\": " << number(st.seconds_bvh) << ",\n";
   o << "  \"seconds_upload\": " << number(st.seconds_upload) << ",\n";
   o << "  \"seconds_pipeline\": " << number(st.seconds_pipeline) << ",\n";
+  if (st.seconds_specialise > 0)
+    o << "  \"seconds_specialise\": " << number(st.seconds_specialise) << ",\n";
   if (!st.shader_variant.empty())
     o << "  \"shader_variant\": " << quote(st.shader_variant) << ",\n";
   o << "  \"seconds_render\": " << number(st.seconds_render) << ",\n";

@@ -67,6 +67,7 @@ class GpuRenderer {
 
   double seconds_upload = 0.0;    // table upload
   double seconds_pipeline = 0.0;  // pipeline creation plus the driver's compile at first use
+  double seconds_specialise = 0.0;  // SPIR-V specialisation of the pipelines built (specialise.h)
   std::uint64_t device_bytes = 0; // bytes of all scene tables on the device
   std::string variant;            // render shader build in use: "lean" or "full"
 

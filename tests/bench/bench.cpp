@@ -344,8 +344,9 @@ void register_all() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // Measure compiles, not Mesa's on-disk shader cache.
+  // Measure compiles, not the on-disk caches.
   setenv("MESA_SHADER_CACHE_DISABLE", "true", 1);
+  setenv("BASALT_CACHE_DIR", "off", 1);  // and not basalt's cache of specialised SPIR-V
   benchmark::Initialize(&argc, argv);
   register_all();
   benchmark::RunSpecifiedBenchmarks();

@@ -3,13 +3,20 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <unistd.h>
+
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <random>
 #include <stdexcept>
 
 #include "common/test_util.h"
 #include "cpu/intersect.h"
+#include "shaders/trace.spv.h"
 #include "vk/gpu_renderer.h"
+#include "vk/specialise.h"
 
 namespace basalt::test {
 namespace {
@@ -242,6 +249,49 @@ TEST(Trace, SameHitsAsTheProbeAndTheCpu) {
     EXPECT_EQ(differ_cpu, 0u);
     EXPECT_GT(hit_count, rays.size() / 10);  // not vacuous: thousands of hits (open scenes: ~20 %)
   }
+}
+
+// Scene specialisation of SPIR-V (vk/specialise.h): it removes code (the trace shader without
+// spheres loses the sphere test), the disk cache answers the second time with the same words,
+// and a damaged cache file is specialised afresh rather than handed to the driver. The images
+// of specialised pipelines are checked against the all-features pipeline above
+// (Specialisation.SameImageAsAllFeatures) and against the CPU by every conformance test.
+TEST(Specialisation, SpirvCacheRoundTripAndDamage) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("basalt-spirv-cache-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  ASSERT_EQ(setenv("BASALT_CACHE_DIR", dir.c_str(), 1), 0);
+  const std::uint32_t f1 = gpu::FEATURE_TRIANGLES, f2 = 0u;
+  bool hit = true;
+  const std::vector<std::uint32_t> first =
+      vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), f1, f2, hit);
+  EXPECT_FALSE(hit);
+  EXPECT_LT(first.size() * 4, sizeof(trace_spv));  // code removed
+  EXPECT_EQ(first, vkx::specialise_spirv(trace_spv, sizeof(trace_spv), f1, f2));
+  const std::vector<std::uint32_t> second =
+      vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), f1, f2, hit);
+  EXPECT_TRUE(hit);
+  EXPECT_EQ(second, first);
+  // Damage every cache file (one word of the payload) and truncate another copy: both miss.
+  int files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    std::fstream f(e.path(), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(16 + 40);
+    const std::uint32_t junk = 0xdeadbeefu;
+    f.write(reinterpret_cast<const char*>(&junk), 4);
+    ++files;
+  }
+  EXPECT_EQ(files, 1);
+  const std::vector<std::uint32_t> third =
+      vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), f1, f2, hit);
+  EXPECT_FALSE(hit);
+  EXPECT_EQ(third, first);
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    std::filesystem::resize_file(e.path(), 100);
+  EXPECT_EQ(vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), f1, f2, hit), first);
+  EXPECT_FALSE(hit);
+  unsetenv("BASALT_CACHE_DIR");
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

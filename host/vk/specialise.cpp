@@ -1,0 +1,116 @@
+// Scene specialisation of SPIR-V with SPIRV-Tools' optimizer (see specialise.h).
+#include "vk/specialise.h"
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+
+#include <spirv-tools/optimizer.hpp>
+
+namespace basalt::vkx {
+
+std::vector<std::uint32_t> specialise_spirv(const std::uint32_t* words, std::size_t bytes,
+                                            std::uint32_t features, std::uint32_t features2) {
+  std::string errors;
+  spvtools::Optimizer opt(SPV_ENV_VULKAN_1_1);
+  opt.SetMessageConsumer([&errors](spv_message_level_t level, const char*,
+                                   const spv_position_t&, const char* message) {
+    if (level <= SPV_MSG_ERROR) errors += std::string(message) + "\n";
+  });
+  const std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> values{{0u, {features}},
+                                                                           {1u, {features2}}};
+  opt.RegisterPass(spvtools::CreateSetSpecConstantDefaultValuePass(values))
+      .RegisterPass(spvtools::CreateFreezeSpecConstantValuePass())
+      .RegisterPass(spvtools::CreateFoldSpecConstantOpAndCompositePass())
+      .RegisterPass(spvtools::CreateDeadBranchElimPass())
+      .RegisterPass(spvtools::CreateEliminateDeadFunctionsPass())
+      .RegisterPass(spvtools::CreateAggressiveDCEPass());
+  // The module comes from glslang at build time; validating it again would cost more than the
+  // passes (0.4 s for the render shader).
+  spvtools::OptimizerOptions options;
+  options.set_run_validator(false);
+  std::vector<std::uint32_t> out;
+  if (!opt.Run(words, bytes / sizeof(std::uint32_t), &out, options))
+    throw std::runtime_error("SPIR-V specialisation failed: " + errors);
+  return out;
+}
+
+namespace {
+
+/// 64-bit FNV-1a of \p n bytes, continuing from \p h.
+std::uint64_t fnv1a(const void* data, std::size_t n, std::uint64_t h = 0xcbf29ce484222325ull) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ull;
+  return h;
+}
+
+/// The cache directory, or empty when caching is off or no home is known.
+std::filesystem::path cache_dir() {
+  if (const char* d = std::getenv("BASALT_CACHE_DIR"); d && *d)
+    return std::string(d) == "off" ? std::filesystem::path() : std::filesystem::path(d);
+  if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x)
+    return std::filesystem::path(x) / "basalt";
+  if (const char* h = std::getenv("HOME"); h && *h)
+    return std::filesystem::path(h) / ".cache" / "basalt";
+  return {};
+}
+
+constexpr std::uint32_t kCacheMagic = 0x56505342u;  // "BSPV"
+
+}  // namespace
+
+std::vector<std::uint32_t> specialise_spirv_cached(const std::uint32_t* words, std::size_t bytes,
+                                                   std::uint32_t features,
+                                                   std::uint32_t features2, bool& hit) {
+  hit = false;
+  const std::filesystem::path dir = cache_dir();
+  if (dir.empty()) return specialise_spirv(words, bytes, features, features2);
+  const std::uint32_t key_words[2] = {features, features2};
+  const std::uint64_t key = fnv1a(key_words, sizeof(key_words), fnv1a(words, bytes));
+  char name[40];
+  std::snprintf(name, sizeof(name), "spirv-%016llx.bin", static_cast<unsigned long long>(key));
+  const std::filesystem::path file = dir / name;
+  // File: magic, payload word count, FNV-1a of the payload (two words), payload.
+  if (std::ifstream in{file, std::ios::binary}) {
+    std::uint32_t head[4] = {};
+    if (in.read(reinterpret_cast<char*>(head), sizeof(head)) && head[0] == kCacheMagic &&
+        head[1] > 0 && head[1] < (1u << 26)) {
+      std::vector<std::uint32_t> out(head[1]);
+      const std::uint64_t sum = head[2] | std::uint64_t(head[3]) << 32;
+      if (in.read(reinterpret_cast<char*>(out.data()), std::streamsize(out.size() * 4)) &&
+          fnv1a(out.data(), out.size() * 4) == sum) {
+        hit = true;
+        return out;
+      }
+    }
+  }
+  std::vector<std::uint32_t> out = specialise_spirv(words, bytes, features, features2);
+  // Written to a temporary name and renamed, so a reader never sees half a file; a cache
+  // that cannot be written is no error (the module is specialised again next time).
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  const std::filesystem::path tmp =
+      dir / (std::string(name) + ".tmp" + std::to_string(fnv1a(&out, sizeof(&out))));
+  {
+    std::ofstream o{tmp, std::ios::binary};
+    const std::uint64_t sum = fnv1a(out.data(), out.size() * 4);
+    const std::uint32_t head[4] = {kCacheMagic, std::uint32_t(out.size()), std::uint32_t(sum),
+                                   std::uint32_t(sum >> 32)};
+    o.write(reinterpret_cast<const char*>(head), sizeof(head));
+    o.write(reinterpret_cast<const char*>(out.data()), std::streamsize(out.size() * 4));
+    if (!o) {
+      o.close();
+      std::filesystem::remove(tmp, ec);
+      return out;
+    }
+  }
+  std::filesystem::rename(tmp, file, ec);
+  if (ec) std::filesystem::remove(tmp, ec);
+  return out;
+}
+
+}  // namespace basalt::vkx
