@@ -4,10 +4,12 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <algorithm>
 #include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <utility>
 
 #include <spirv-tools/optimizer.hpp>
 
@@ -60,6 +62,30 @@ std::filesystem::path cache_dir() {
 }
 
 constexpr std::uint32_t kCacheMagic = 0x56505342u;  // "BSPV"
+/// The cache is trimmed to kCacheKeep bytes, least recently used first, when it passes
+/// kCacheLimit (each shader change leaves a set of stale entries behind).
+constexpr std::uintmax_t kCacheLimit = 64u << 20, kCacheKeep = 48u << 20;
+
+/// Removes the least recently used cache files while the directory holds over kCacheLimit.
+void trim_cache(const std::filesystem::path& dir) {
+  std::error_code ec;
+  std::vector<std::pair<std::filesystem::file_time_type, std::filesystem::path>> files;
+  std::uintmax_t total = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
+    if (!e.is_regular_file(ec) || e.path().filename().string().rfind("spirv-", 0) != 0) continue;
+    const std::uintmax_t size = e.file_size(ec);
+    if (ec) continue;
+    total += size;
+    files.push_back({e.last_write_time(ec), e.path()});
+  }
+  if (total <= kCacheLimit) return;
+  std::sort(files.begin(), files.end());
+  for (const auto& [time, path] : files) {
+    if (total <= kCacheKeep) break;
+    const std::uintmax_t size = std::filesystem::file_size(path, ec);
+    if (!ec && std::filesystem::remove(path, ec)) total -= size;
+  }
+}
 
 }  // namespace
 
@@ -84,6 +110,8 @@ std::vector<std::uint32_t> specialise_spirv_cached(const std::uint32_t* words, s
       if (in.read(reinterpret_cast<char*>(out.data()), std::streamsize(out.size() * 4)) &&
           fnv1a(out.data(), out.size() * 4) == sum) {
         hit = true;
+        std::error_code ec;  // recently used: kept longest when the cache is trimmed
+        std::filesystem::last_write_time(file, std::filesystem::file_time_type::clock::now(), ec);
         return out;
       }
     }
@@ -110,6 +138,7 @@ std::vector<std::uint32_t> specialise_spirv_cached(const std::uint32_t* words, s
   }
   std::filesystem::rename(tmp, file, ec);
   if (ec) std::filesystem::remove(tmp, ec);
+  trim_cache(dir);
   return out;
 }
 

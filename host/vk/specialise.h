@@ -21,7 +21,8 @@ std::vector<std::uint32_t> specialise_spirv(const std::uint32_t* words, std::siz
 /// $XDG_CACHE_HOME/basalt, else ~/.cache/basalt (as Mesa keeps its shader cache); the file name
 /// is a 64-bit hash of the module and the two words, the file holds a hash of its contents, so
 /// a changed shader or a damaged file is specialised afresh. BASALT_CACHE_DIR=off (or no
-/// writable directory) skips the cache. Sets \p hit to whether the cache answered.
+/// writable directory) skips the cache. Past 64 MiB the least recently used entries are
+/// removed down to 48 MiB. Sets \p hit to whether the cache answered.
 std::vector<std::uint32_t> specialise_spirv_cached(const std::uint32_t* words, std::size_t bytes,
                                                    std::uint32_t features,
                                                    std::uint32_t features2, bool& hit);

@@ -2,6 +2,7 @@
 // exactly what the all-features pipeline renders, and the trace stage hits what the probe hits.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <unistd.h>
 
@@ -290,6 +291,45 @@ TEST(Specialisation, SpirvCacheRoundTripAndDamage) {
     std::filesystem::resize_file(e.path(), 100);
   EXPECT_EQ(vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), f1, f2, hit), first);
   EXPECT_FALSE(hit);
+  unsetenv("BASALT_CACHE_DIR");
+  std::filesystem::remove_all(dir);
+}
+
+// The cache stays bounded: past 64 MiB the least recently used entries go, down to 48 MiB, and
+// the entry just written stays (sparse 4 MiB stand-ins of older entries, oldest first).
+TEST(Specialisation, SpirvCacheIsTrimmed) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("basalt-spirv-trim-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const auto now = std::filesystem::file_time_type::clock::now();
+  for (int i = 0; i < 17; ++i) {
+    const std::filesystem::path f = dir / ("spirv-old" + std::to_string(100 + i) + ".bin");
+    std::ofstream{f}.put('x');
+    std::filesystem::resize_file(f, 4u << 20);
+    std::filesystem::last_write_time(f, now - std::chrono::hours(100 - i));
+  }
+  std::ofstream{dir / "unrelated.txt"}.put('x');  // not the cache's: never removed
+  ASSERT_EQ(setenv("BASALT_CACHE_DIR", dir.c_str(), 1), 0);
+  bool hit = true;
+  vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), gpu::FEATURE_TRIANGLES, 0u, hit);
+  EXPECT_FALSE(hit);
+  std::uintmax_t total = 0;
+  int old_left = 0;
+  bool newest_old_left = false, unrelated_left = false;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("spirv-", 0) == 0) total += e.file_size();
+    old_left += name.rfind("spirv-old", 0) == 0;
+    newest_old_left |= name == "spirv-old116.bin";
+    unrelated_left |= name == "unrelated.txt";
+  }
+  EXPECT_LE(total, std::uintmax_t(48) << 20);
+  EXPECT_EQ(old_left, 11);  // 17 x 4 MiB + the new entry, trimmed to 48 MiB: the 6 oldest go
+  EXPECT_TRUE(newest_old_left);
+  EXPECT_TRUE(unrelated_left);
+  vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), gpu::FEATURE_TRIANGLES, 0u, hit);
+  EXPECT_TRUE(hit);  // the new entry survived the trim
   unsetenv("BASALT_CACHE_DIR");
   std::filesystem::remove_all(dir);
 }
