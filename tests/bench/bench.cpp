@@ -5,7 +5,10 @@
 // each texture family and each bump family on one scene (texture/<family>/{gpu,cpu},
 // bump/<family>/{gpu,cpu}); and displacement mapping's triangles, build time and table size
 // at several edge-length scales (displacement/edge-scale-<scale x 1000>); traversal rates of
-// lavapipe, the CPU reference and Embree on the same rays (rays/..., tests/bench/rays.cpp).
+// lavapipe, the CPU reference and Embree on the same rays (rays/..., tests/bench/rays.cpp);
+// and, as a user sees them, pipeline creation and the time to the first pass of samples of
+// the `basalt` command cold and warm (pipeline/<scene>/{cold,warm}). Rows that measure an
+// issue 12 target carry it (target_s, or vs_cpu >= 1 on gpu/<scene>) beside the figure.
 // Run: `cmake --build build --target bench` (5 repetitions, medians reported).
 #include <benchmark/benchmark.h>
 
@@ -13,8 +16,13 @@
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <memory>
+#include <string>
+
+#include <unistd.h>
 
 #include "bench/rays.h"
 #include "cpu/render.h"
@@ -55,18 +63,76 @@ void set_counters(benchmark::State& state, double samples, double rays) {
 }
 
 /// One GPU render of kSpp samples per pixel; upload and pipeline creation are not timed.
+/// vs_cpu: its samples/s over the CPU reference's, rendering the same in the same benchmark
+/// (issue 12's target: at least 1 on every scene).
 void BM_Gpu(benchmark::State& state, std::string path) {
   const auto& t = tables(path);
   basalt::vkx::GpuRenderer gpu(context(), t);
   const double samples = double(t.width()) * t.height() * kSpp;
-  double rays = 0;
+  double rays = 0, gpu_seconds = 0;
   for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
     gpu.clear();
     gpu.render(0, kSpp);
     rays += double(gpu.rays());
+    gpu_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   set_counters(state, samples * state.iterations(), rays);
   state.counters["pipeline_s"] = gpu.seconds_pipeline;
+  std::vector<glm::vec4> accum(std::size_t(t.width()) * t.height(), glm::vec4(0.0f));
+  const auto t0 = std::chrono::steady_clock::now();
+  basalt::cpu::render(t, 0, kSpp, accum);
+  const double cpu_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  state.counters["vs_cpu"] = cpu_seconds / (gpu_seconds / double(state.iterations()));
+}
+
+/// The `basalt` command next to this benchmark, rendering one sample per pixel of a scene with
+/// its own caches (Mesa's shader cache and basalt's specialised SPIR-V) in a fresh directory:
+/// cold empties them before each run, warm fills them once first. Reports the command's
+/// seconds_pipeline (the row's time) and seconds_to_first_pass, with issue 12's targets
+/// (pipeline: 2 s cold, 0.3 s warm; first pass of the Cornell box: 0.5 s cold).
+void BM_PipelineProcess(benchmark::State& state, std::string path, bool warm) {
+  namespace fs = std::filesystem;
+  const fs::path exe = fs::read_symlink("/proc/self/exe").parent_path() / "basalt";
+  const fs::path dir = fs::temp_directory_path() /
+                       ("basalt-bench-" + std::to_string(::getpid()) + "-" +
+                        fs::path(path).stem().string());
+  const std::string command =
+      "env -u MESA_SHADER_CACHE_DISABLE MESA_SHADER_CACHE_DIR='" + (dir / "mesa").string() +
+      "' BASALT_CACHE_DIR='" + (dir / "basalt").string() + "' '" + exe.string() + "' '" + path +
+      "' --spp 1 --quiet -o '" + (dir / "out.exr").string() + "' --stats '" +
+      (dir / "stats.json").string() + "' >/dev/null 2>&1";
+  // The value of a "key": number pair of the stats file.
+  auto stat = [&](const std::string& key) {
+    std::ifstream in(dir / "stats.json");
+    const std::string text{std::istreambuf_iterator<char>(in), {}};
+    const auto at = text.find("\"" + key + "\":");
+    return at == std::string::npos ? -1.0 : std::atof(text.c_str() + at + key.size() + 3);
+  };
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  if (warm && std::system(command.c_str()) != 0) state.SkipWithError("basalt failed");
+  double pipeline = 0, first_pass = 0;
+  for (auto _ : state) {
+    if (!warm) {
+      fs::remove_all(dir / "mesa");
+      fs::remove_all(dir / "basalt");
+    }
+    if (std::system(command.c_str()) != 0) {
+      state.SkipWithError("basalt failed");
+      break;
+    }
+    pipeline += stat("seconds_pipeline");
+    first_pass += stat("seconds_to_first_pass");
+    state.SetIterationTime(stat("seconds_pipeline"));
+  }
+  fs::remove_all(dir);
+  const double n = double(std::max<benchmark::IterationCount>(1, state.iterations()));
+  state.counters["pipeline_s"] = pipeline / n;
+  state.counters["first_pass_s"] = first_pass / n;
+  state.counters["target_s"] = warm ? 0.3 : 2.0;
+  if (!warm && fs::path(path).stem() == "cornell-box") state.counters["first_pass_target_s"] = 0.5;
 }
 
 /// One CPU reference render of kSpp samples per pixel on all cores.
@@ -325,6 +391,10 @@ void register_all() {
         ->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
     benchmark::RegisterBenchmark(("cpu/" + name).c_str(), BM_Cpu, f)
         ->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
+    for (bool warm : {false, true})
+      benchmark::RegisterBenchmark(("pipeline/" + name + (warm ? "/warm" : "/cold")).c_str(),
+                                   BM_PipelineProcess, f, warm)
+          ->Unit(benchmark::kMillisecond)->Iterations(1)->UseManualTime();
     auto* spec = benchmark::RegisterBenchmark(("specialisation/" + name).c_str(),
                                               BM_Specialisation, f);
     spec->ArgName("config")->Arg(kSpecialised)->Arg(kAllFeatures);
