@@ -3,6 +3,7 @@
 #include "vk/gpu_renderer.h"
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -47,7 +48,7 @@ const char* kTableNames[] = {"globals", "wide BVH nodes", "primitive refs", "tri
                              "lights",   "light cdf", "filter table",   "accumulation", "counters",
                              "measured BRDF", "textures",   "image levels", "texels",
                              "texture data", "texels (chunk 1)", "texels (chunk 2)",
-                             "texels (chunk 3)", "sampler data"};
+                             "texels (chunk 3)", "sampler data", "leaf prims"};
 
 /// Feature bits the lean render shader (BASALT_LEAN_MATERIALS) implements: everything but
 /// the material kinds other than diffuse. A feature added to layout.h later is not in this
@@ -61,6 +62,22 @@ constexpr std::uint32_t kLeanFeatures =
     // (slots_resolve serves its diffuse material too; LeanVariant tests check the images).
     gpu::FEATURE_TEXTURES | gpu::FEATURE_TEX_NOISE | gpu::FEATURE_TEX_IMAGE |
     gpu::FEATURE_LIGHT_INFINITE_IMAGE;
+
+/// The leaf_prims table (BINDING_LEAF_PRIMS): per prim_refs entry, the triangle's three
+/// positions, the reference's bits in w of the first (spheres: only those).
+std::vector<glm::vec4> leaf_prim_table(const SceneTables& t) {
+  std::vector<glm::vec4> out(t.prim_refs.size() * 3, glm::vec4(0.0f));
+  for (std::size_t k = 0; k < t.prim_refs.size(); ++k) {
+    const std::uint32_t ref = t.prim_refs[k];
+    out[3 * k].w = std::bit_cast<float>(ref);
+    if (ref & gpu::PRIM_SPHERE_BIT) continue;
+    const gpu::Triangle& T = t.triangles[ref];
+    out[3 * k] = glm::vec4(glm::vec3(t.vertices[T.v0].p_u), std::bit_cast<float>(ref));
+    out[3 * k + 1] = glm::vec4(glm::vec3(t.vertices[T.v1].p_u), 0.0f);
+    out[3 * k + 2] = glm::vec4(glm::vec3(t.vertices[T.v2].p_u), 0.0f);
+  }
+  return out;
+}
 
 }  // namespace
 
@@ -103,6 +120,11 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   };
   // The GPU traverses the wide BVH (docs/path-spec.md 3.1); the binary nodes stay on the host.
   const std::vector<gpu::BvhWideNode> wide = build_wide_bvh(t.nodes);
+  // Leaf-ordered positions when they fit one binding (else the tables they come from).
+  const std::uint64_t leaf_limit =
+      leaf_prims_max_bytes ? leaf_prims_max_bytes : ctx.info().max_storage_buffer_range;
+  leaf_prims = t.prim_refs.size() * 3 * sizeof(glm::vec4) <= leaf_limit;
+  const std::vector<glm::vec4> leaf = leaf_prims ? leaf_prim_table(t) : std::vector<glm::vec4>{};
   const Src src[BINDING_COUNT] = {
       {&t.globals, sizeof(t.globals)},
       optional_table(wide),
@@ -119,7 +141,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
       {nullptr, 4 * sizeof(std::uint32_t)},
       optional_table(t.measured), optional_table(t.textures), optional_table(t.mip_levels),
       texel_chunk(0), optional_table(t.tex_data), texel_chunk(1), texel_chunk(2),
-      texel_chunk(3), optional_table(t.sampler_data)};
+      texel_chunk(3), optional_table(t.sampler_data), optional_table(leaf)};
   if (t.texels.size() > (std::size_t(TEXEL_CHUNK_COUNT) << TEXEL_CHUNK_SHIFT))
     throw std::runtime_error("scene too large: its images need " +
                              std::to_string(t.texels.size() * sizeof(float)) +
@@ -191,20 +213,22 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
   if (features != 0xffffffffu || features2 != 0xffffffffu) {
     const auto t0 = Clock::now();
     bool hit = false;
-    specialised = specialise_spirv_cached(spirv, bytes, features, features2, hit);
+    specialised =
+        specialise_spirv_cached(spirv, bytes, {features, features2, leaf_prims ? 1u : 0u}, hit);
     seconds_specialise += since(t0);
     spirv = specialised.data();
     bytes = specialised.size() * sizeof(std::uint32_t);
   }
   vk::ShaderModule module = dev.createShaderModule({.codeSize = bytes, .pCode = spirv});
   // Constant 0: FEATURES (the scene's feature word); constant 1: FEATURES2 (the second word,
-  // the texture families of layout.h).
-  const std::uint32_t words[2] = {features, features2};
-  const vk::SpecializationMapEntry entries[2] = {
+  // the texture families of layout.h); constant 2: LEAF_PRIMS (bindings.glsl).
+  const std::uint32_t words[3] = {features, features2, leaf_prims ? 1u : 0u};
+  const vk::SpecializationMapEntry entries[3] = {
       {.constantID = 0, .offset = 0, .size = sizeof(std::uint32_t)},
-      {.constantID = 1, .offset = sizeof(std::uint32_t), .size = sizeof(std::uint32_t)}};
+      {.constantID = 1, .offset = sizeof(std::uint32_t), .size = sizeof(std::uint32_t)},
+      {.constantID = 2, .offset = 2 * sizeof(std::uint32_t), .size = sizeof(std::uint32_t)}};
   vk::SpecializationInfo spec{
-      .mapEntryCount = 2, .pMapEntries = entries, .dataSize = sizeof(words), .pData = words};
+      .mapEntryCount = 3, .pMapEntries = entries, .dataSize = sizeof(words), .pData = words};
   vk::ComputePipelineCreateInfo info{
       .stage = {.stage = vk::ShaderStageFlagBits::eCompute,
                 .module = module,

@@ -65,6 +65,13 @@ class GpuRenderer {
   ///        65535 x 64 rays a call.
   std::vector<gpu::TraceHit> trace(const std::vector<gpu::TraceRay>& rays, bool any_hit);
 
+  /// Largest leaf_prims table (BINDING_LEAF_PRIMS, 48 bytes a prim reference) to upload; 0:
+  /// the device's maxStorageBufferRange. A larger one is left out and leaves read the
+  /// reference, triangle and vertex tables instead (LEAF_PRIMS = 0); tests set 1 to take
+  /// that path.
+  static inline std::size_t leaf_prims_max_bytes = 0;
+  bool leaf_prims = false;         // the leaf_prims table is bound (LEAF_PRIMS = 1)
+
   double seconds_upload = 0.0;    // table upload
   double seconds_pipeline = 0.0;  // pipeline creation plus the driver's compile at first use
   double seconds_specialise = 0.0;  // SPIR-V specialisation of the pipelines built (specialise.h)

@@ -16,15 +16,15 @@
 namespace basalt::vkx {
 
 std::vector<std::uint32_t> specialise_spirv(const std::uint32_t* words, std::size_t bytes,
-                                            std::uint32_t features, std::uint32_t features2) {
+                                            const std::vector<std::uint32_t>& constants) {
   std::string errors;
   spvtools::Optimizer opt(SPV_ENV_VULKAN_1_1);
   opt.SetMessageConsumer([&errors](spv_message_level_t level, const char*,
                                    const spv_position_t&, const char* message) {
     if (level <= SPV_MSG_ERROR) errors += std::string(message) + "\n";
   });
-  const std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> values{{0u, {features}},
-                                                                           {1u, {features2}}};
+  std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> values;
+  for (std::uint32_t id = 0; id < constants.size(); ++id) values[id] = {constants[id]};
   opt.RegisterPass(spvtools::CreateSetSpecConstantDefaultValuePass(values))
       .RegisterPass(spvtools::CreateFreezeSpecConstantValuePass())
       .RegisterPass(spvtools::CreateFoldSpecConstantOpAndCompositePass())
@@ -90,13 +90,13 @@ void trim_cache(const std::filesystem::path& dir) {
 }  // namespace
 
 std::vector<std::uint32_t> specialise_spirv_cached(const std::uint32_t* words, std::size_t bytes,
-                                                   std::uint32_t features,
-                                                   std::uint32_t features2, bool& hit) {
+                                                   const std::vector<std::uint32_t>& constants,
+                                                   bool& hit) {
   hit = false;
   const std::filesystem::path dir = cache_dir();
-  if (dir.empty()) return specialise_spirv(words, bytes, features, features2);
-  const std::uint32_t key_words[2] = {features, features2};
-  const std::uint64_t key = fnv1a(key_words, sizeof(key_words), fnv1a(words, bytes));
+  if (dir.empty()) return specialise_spirv(words, bytes, constants);
+  const std::uint64_t key =
+      fnv1a(constants.data(), constants.size() * sizeof(std::uint32_t), fnv1a(words, bytes));
   char name[40];
   std::snprintf(name, sizeof(name), "spirv-%016llx.bin", static_cast<unsigned long long>(key));
   const std::filesystem::path file = dir / name;
@@ -116,7 +116,7 @@ std::vector<std::uint32_t> specialise_spirv_cached(const std::uint32_t* words, s
       }
     }
   }
-  std::vector<std::uint32_t> out = specialise_spirv(words, bytes, features, features2);
+  std::vector<std::uint32_t> out = specialise_spirv(words, bytes, constants);
   // Written to a temporary name and renamed, so a reader never sees half a file; a cache
   // that cannot be written is no error (the module is specialised again next time).
   std::error_code ec;

@@ -13,6 +13,10 @@
 layout(constant_id = 0) const uint FEATURES = 0xffffffffu;
 // The second feature word (FEATURE2_*: texture families), specialization constant 1.
 layout(constant_id = 1) const uint FEATURES2 = 0xffffffffu;
+// Specialization constant 2: 1 when the leaf_prims table is bound (BINDING_LEAF_PRIMS), 0 when
+// the scene's is too large for one binding and leaves read prim_refs, triangles and vertices.
+// A table format, not a feature: the host sets it for every pipeline, the probe's included.
+layout(constant_id = 2) const uint LEAF_PRIMS = 1u;
 
 layout(std430, set = 0, binding = BINDING_GLOBALS) restrict readonly buffer GlobalsBuffer {
   Globals globals;
@@ -24,6 +28,7 @@ layout(std430, set = 0, binding = BINDING_GLOBALS) restrict readonly buffer Glob
 // every storage-buffer load into a loop over its lanes, so wide loads beat scalar ones.
 BASALT_TABLE(BVH_NODES, BvhNodeBuffer, uvec4, bvh_words);
 BASALT_TABLE(PRIM_REFS, PrimRefBuffer, uint, prim_refs);
+BASALT_TABLE(LEAF_PRIMS, LeafPrimBuffer, vec4, leaf_prims);
 BASALT_TABLE(TRIANGLES, TriangleBuffer, Triangle, triangles);
 BASALT_TABLE(VERTICES, VertexBuffer, Vertex, vertices);
 BASALT_TABLE(MESHES, MeshBuffer, Mesh, meshes);

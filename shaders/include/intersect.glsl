@@ -59,13 +59,10 @@ RayTri ray_tri(Ray ray) {
 // Triangle::Intersect, without the double-precision fallback and the conservative t bound.
 // Edge functions are plain products marked precise (no fma contraction, same rounding as
 // the CPU reference compiled with -ffp-contract=off), which keeps shared edges watertight.
-// Returns t in (0, tmax) with barycentrics (b1, b2), or -1 for a miss.
-float intersect_triangle(Ray ray, RayTri rt, uint tri, out vec2 b12) {
+// Returns t in (0, tmax) with barycentrics (b1, b2), or -1 for a miss. p0, p1, p2: the
+// triangle's world-space vertices.
+float intersect_triangle_at(Ray ray, RayTri rt, vec3 p0, vec3 p1, vec3 p2, out vec2 b12) {
   b12 = vec2(0.0);
-  Triangle T = triangles[tri];
-  vec3 p0 = vertices[T.v0].p_u.xyz;
-  vec3 p1 = vertices[T.v1].p_u.xyz;
-  vec3 p2 = vertices[T.v2].p_u.xyz;
   // Translate to the ray origin (permuting first and subtracting the permuted origin is the
   // same arithmetic per component).
   precise vec3 p0t = permute_kz(p0, rt.kz) - rt.o;
@@ -131,6 +128,13 @@ float intersect_sphere(Ray ray, uint sph) {
   }
   float t = t0 > 0.0 ? t0 : t1;
   return (t > 0.0 && t < ray.tmax) ? t : -1.0;
+}
+
+// The watertight test against triangle tri of the triangle table.
+float intersect_triangle(Ray ray, RayTri rt, uint tri, out vec2 b12) {
+  Triangle T = triangles[tri];
+  return intersect_triangle_at(ray, rt, vertices[T.v0].p_u.xyz, vertices[T.v1].p_u.xyz,
+                               vertices[T.v2].p_u.xyz, b12);
 }
 
 // Tests the ray against one prim reference; t in (0, tmax) or -1, barycentrics b1, b2.
@@ -247,9 +251,26 @@ Hit bvh_trace(Ray ray, bool any_hit) {
       uint first = item & (BVH_WIDE_FIRST_LIMIT - 1u);
       uint end = first + ((item >> 26) & 31u) + 1u;
       for (uint k = first; k < end; ++k) {
-        uint ref = prim_refs[k];
+        uint ref;
         vec2 b12;
-        float t = intersect_prim(ray, rt, ref, b12);
+        float t;
+        if (LEAF_PRIMS != 0u) {
+          // The positions in leaf order: three vec4 loads instead of the reference, the
+          // triangle and three vertices (lavapipe loops over lanes for every load).
+          vec4 q0 = leaf_prims[3u * k];
+          ref = floatBitsToUint(q0.w);
+          b12 = vec2(0.0);
+          t = -1.0;
+          if ((ref & PRIM_SPHERE_BIT) != 0u) {
+            if ((FEATURES & FEATURE_SPHERES) != 0u) t = intersect_sphere(ray, ref & PRIM_INDEX_MASK);
+          } else if ((FEATURES & FEATURE_TRIANGLES) != 0u) {
+            t = intersect_triangle_at(ray, rt, q0.xyz, leaf_prims[3u * k + 1u].xyz,
+                                      leaf_prims[3u * k + 2u].xyz, b12);
+          }
+        } else {
+          ref = prim_refs[k];
+          t = intersect_prim(ray, rt, ref, b12);
+        }
         if (t > 0.0 && (t < best.t || (t == best.t && ref < best.prim))) {
           best = Hit(t, b12.x, b12.y, ref);
           if (any_hit) return best;

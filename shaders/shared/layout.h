@@ -49,7 +49,12 @@ using mat4 = glm::mat4;
 #define BINDING_TEXELS3 20   //   2^27 bytes in Vulkan), so image data may total 512 MiB
 #define BINDING_SAMPLER_DATA 21  // uint sampler_data[]: the first SAMPLER_PRIME_COUNT primes,
                                  //   then the sobol or pmj02bn tables (docs/sampler-spec.md 3)
-#define BINDING_COUNT 22
+#define BINDING_LEAF_PRIMS 22  // vec4 leaf_prims[]: per prim_refs entry k, three vec4: the
+                               //   triangle's positions p0, p1, p2 (w of p0: the ref's bits;
+                               //   a sphere's entry holds only that), so a leaf's triangles are
+                               //   read without the triangle and vertex tables; 16 zero bytes
+                               //   when absent (specialization constant LEAF_PRIMS = 0)
+#define BINDING_COUNT 23
 // Texel index g (a float index into the whole texel table) lives in chunk g >> TEXEL_CHUNK_SHIFT
 // at index g & (TEXEL_CHUNK - 1) of that chunk's binding.
 #define TEXEL_CHUNK_SHIFT 25u

@@ -70,6 +70,32 @@ std::vector<glm::vec4> render_variant(const SceneTables& t, std::uint32_t featur
   return gpu.accum();
 }
 
+// The leaf_prims table (leaf-ordered triangle positions) changes which loads a leaf makes,
+// never a hit: a scene renders the same image, bit for bit, without it (as it must when the
+// table does not fit one binding).
+TEST(LeafPrims, SameImageWithoutTheTable) {
+  for (const char* file : {"scenes/cornell-box.pbrt", "scenes/spheres-lights.pbrt"}) {
+    const SceneTables t = tables_from_file(source_path(file), 64, 48);
+    std::vector<glm::vec4> a, b;
+    {
+      vkx::GpuRenderer gpu(gpu_context(), t);
+      EXPECT_TRUE(gpu.leaf_prims);
+      gpu.render(0, 2);
+      a = gpu.accum();
+    }
+    {
+      vkx::GpuRenderer::leaf_prims_max_bytes = 1;
+      vkx::GpuRenderer gpu(gpu_context(), t);
+      vkx::GpuRenderer::leaf_prims_max_bytes = 0;
+      EXPECT_FALSE(gpu.leaf_prims);
+      gpu.render(0, 2);
+      b = gpu.accum();
+    }
+    ASSERT_EQ(a.size(), b.size());
+    EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(glm::vec4)), 0) << file;
+  }
+}
+
 // For diffuse-only scenes the lean render shader (only MATERIAL_DIFFUSE compiled in) is the
 // automatic choice and renders, bit for bit, what the full shader renders, specialised or
 // with every feature.
@@ -248,6 +274,19 @@ TEST(Trace, SameHitsAsTheProbeAndTheCpu) {
     }
     EXPECT_EQ(differ, 0u);
     EXPECT_EQ(differ_cpu, 0u);
+    EXPECT_TRUE(gpu.leaf_prims);
+    // Without the leaf_prims table (LEAF_PRIMS = 0: leaves read the reference, triangle and
+    // vertex tables), the trace stage answers bit for bit the same.
+    vkx::GpuRenderer::leaf_prims_max_bytes = 1;
+    vkx::GpuRenderer fallback(gpu_context(), t, t.features, vkx::ShaderVariant::automatic, false);
+    vkx::GpuRenderer::leaf_prims_max_bytes = 0;
+    EXPECT_FALSE(fallback.leaf_prims);
+    const std::vector<gpu::TraceHit> fh = fallback.trace(rays, false), fa = fallback.trace(rays, true);
+    std::size_t differ_fallback = 0;
+    for (std::size_t i = 0; i < rays.size(); ++i)
+      differ_fallback += std::memcmp(&fh[i], &hits[i], sizeof(gpu::TraceHit)) != 0 ||
+                         (fa[i].prim != gpu::INVALID_INDEX) != (any[i].prim != gpu::INVALID_INDEX);
+    EXPECT_EQ(differ_fallback, 0u);
     EXPECT_GT(hit_count, rays.size() / 10);  // not vacuous: thousands of hits (open scenes: ~20 %)
   }
 }
@@ -265,12 +304,12 @@ TEST(Specialisation, SpirvCacheRoundTripAndDamage) {
   const std::uint32_t f1 = gpu::FEATURE_TRIANGLES, f2 = 0u;
   bool hit = true;
   const std::vector<std::uint32_t> first =
-      vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), f1, f2, hit);
+      vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), {f1, f2, 1u}, hit);
   EXPECT_FALSE(hit);
   EXPECT_LT(first.size() * 4, sizeof(trace_spv));  // code removed
-  EXPECT_EQ(first, vkx::specialise_spirv(trace_spv, sizeof(trace_spv), f1, f2));
+  EXPECT_EQ(first, vkx::specialise_spirv(trace_spv, sizeof(trace_spv), {f1, f2, 1u}));
   const std::vector<std::uint32_t> second =
-      vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), f1, f2, hit);
+      vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), {f1, f2, 1u}, hit);
   EXPECT_TRUE(hit);
   EXPECT_EQ(second, first);
   // Damage every cache file (one word of the payload) and truncate another copy: both miss.
@@ -284,12 +323,12 @@ TEST(Specialisation, SpirvCacheRoundTripAndDamage) {
   }
   EXPECT_EQ(files, 1);
   const std::vector<std::uint32_t> third =
-      vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), f1, f2, hit);
+      vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), {f1, f2, 1u}, hit);
   EXPECT_FALSE(hit);
   EXPECT_EQ(third, first);
   for (const auto& e : std::filesystem::directory_iterator(dir))
     std::filesystem::resize_file(e.path(), 100);
-  EXPECT_EQ(vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), f1, f2, hit), first);
+  EXPECT_EQ(vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), {f1, f2, 1u}, hit), first);
   EXPECT_FALSE(hit);
   unsetenv("BASALT_CACHE_DIR");
   std::filesystem::remove_all(dir);
@@ -312,7 +351,7 @@ TEST(Specialisation, SpirvCacheIsTrimmed) {
   std::ofstream{dir / "unrelated.txt"}.put('x');  // not the cache's: never removed
   ASSERT_EQ(setenv("BASALT_CACHE_DIR", dir.c_str(), 1), 0);
   bool hit = true;
-  vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), gpu::FEATURE_TRIANGLES, 0u, hit);
+  vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), {gpu::FEATURE_TRIANGLES, 0u, 1u}, hit);
   EXPECT_FALSE(hit);
   std::uintmax_t total = 0;
   int old_left = 0;
@@ -328,7 +367,7 @@ TEST(Specialisation, SpirvCacheIsTrimmed) {
   EXPECT_EQ(old_left, 11);  // 17 x 4 MiB + the new entry, trimmed to 48 MiB: the 6 oldest go
   EXPECT_TRUE(newest_old_left);
   EXPECT_TRUE(unrelated_left);
-  vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), gpu::FEATURE_TRIANGLES, 0u, hit);
+  vkx::specialise_spirv_cached(trace_spv, sizeof(trace_spv), {gpu::FEATURE_TRIANGLES, 0u, 1u}, hit);
   EXPECT_TRUE(hit);  // the new entry survived the trim
   unsetenv("BASALT_CACHE_DIR");
   std::filesystem::remove_all(dir);
