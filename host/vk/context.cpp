@@ -148,6 +148,7 @@ Context::Context(const std::string& selector, bool validation) {
   info_.driver = std::string(driver.driverName.data()) + ": " + driver.driverInfo.data();
   info_.is_cpu = props.deviceType == vk::PhysicalDeviceType::eCpu;
   info_.max_storage_buffer_range = props.limits.maxStorageBufferRange;
+  info_.max_texel_buffer_elements = props.limits.maxTexelBufferElements;
 
   auto families = physical.getQueueFamilyProperties();
   queue_family = UINT32_MAX;

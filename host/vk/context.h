@@ -16,6 +16,7 @@ struct DeviceInfo {
   std::string driver;  // driver name and info, e.g. "llvmpipe: Mesa 22.3.6 (LLVM 15.0.6)"
   bool is_cpu = false;
   std::uint64_t max_storage_buffer_range = 0;
+  std::uint64_t max_texel_buffer_elements = 0;
 };
 
 /// A buffer with its memory, persistently mapped (host-visible memory).

@@ -79,6 +79,21 @@ std::vector<glm::vec4> leaf_prim_table(const SceneTables& t) {
   return out;
 }
 
+/// The storage table that texel view k (binding BINDING_BVH_TEXELS + k, layout.h) shows.
+constexpr std::uint32_t kTexelViewOf[TEXEL_VIEW_COUNT] = {
+    BINDING_BVH_NODES, BINDING_LEAF_PRIMS, BINDING_TRIANGLES, BINDING_VERTICES, BINDING_MESHES};
+static_assert(BINDING_LEAF_TEXELS == BINDING_BVH_TEXELS + 1 &&
+                  BINDING_TRIANGLE_TEXELS == BINDING_BVH_TEXELS + 2 &&
+                  BINDING_VERTEX_TEXELS == BINDING_BVH_TEXELS + 3 &&
+                  BINDING_MESH_TEXELS == BINDING_BVH_TEXELS + 4 &&
+                  BINDING_BVH_TEXELS == BINDING_COUNT,
+              "texel view bindings follow the storage tables in kTexelViewOf's order");
+
+/// True if binding b is a storage table that one of the texel views shows.
+bool has_texel_view(std::uint32_t b) {
+  return std::find(std::begin(kTexelViewOf), std::end(kTexelViewOf), b) != std::end(kTexelViewOf);
+}
+
 }  // namespace
 
 bool GpuRenderer::lean_suffices(std::uint32_t features) {
@@ -156,10 +171,25 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
           std::to_string(limit) + " bytes) of " + ctx.info().name);
   tables_.resize(BINDING_COUNT);
   for (int i = 0; i < BINDING_COUNT; ++i) {
-    tables_[i] = ctx.create_buffer(src[i].bytes, usage);
+    tables_[i] = ctx.create_buffer(
+        src[i].bytes, has_texel_view(i) ? usage | vk::BufferUsageFlagBits::eUniformTexelBuffer : usage);
     if (src[i].data && src[i].bytes) std::memcpy(tables_[i].mapped, src[i].data, src[i].bytes);
     else if (tables_[i].mapped) std::memset(tables_[i].mapped, 0, src[i].bytes);
     device_bytes += tables_[i].size;
+  }
+  // The texel views: each over its whole table when every table fits the device's texel limit
+  // (TEXEL_TABLES = 1), else each over what fits, bound but not read (TEXEL_TABLES = 0).
+  const std::uint64_t texel_limit =
+      texel_views_max_texels ? texel_views_max_texels : ctx.info().max_texel_buffer_elements;
+  texel_tables = true;
+  for (std::uint32_t b : kTexelViewOf)
+    texel_tables = texel_tables && tables_[b].size / 16 <= texel_limit;
+  for (std::uint32_t b : kTexelViewOf) {
+    const std::uint64_t texels = std::min<std::uint64_t>(tables_[b].size / 16, texel_limit);
+    views_.push_back(ctx.device.createBufferView({.buffer = tables_[b].buffer,
+                                                  .format = vk::Format::eR32G32B32A32Uint,
+                                                  .offset = 0,
+                                                  .range = texels * 16}));
   }
   seconds_upload = since(t0);
 
@@ -183,6 +213,7 @@ GpuRenderer::~GpuRenderer() {
   destroy_pipeline(render_);
   destroy_stage(probe_);
   destroy_stage(trace_);
+  for (auto& v : views_) ctx_.device.destroyBufferView(v);
   for (auto& b : tables_) ctx_.destroy_buffer(b);
 }
 
@@ -195,6 +226,11 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
   for (const auto& [binding, buffer] : bindings)
     layout_bindings.push_back({.binding = binding,
                                .descriptorType = vk::DescriptorType::eStorageBuffer,
+                               .descriptorCount = 1,
+                               .stageFlags = vk::ShaderStageFlagBits::eCompute});
+  for (std::uint32_t k = 0; k < views_.size(); ++k)
+    layout_bindings.push_back({.binding = BINDING_BVH_TEXELS + k,
+                               .descriptorType = vk::DescriptorType::eUniformTexelBuffer,
                                .descriptorCount = 1,
                                .stageFlags = vk::ShaderStageFlagBits::eCompute});
   p.set_layout = dev.createDescriptorSetLayout(
@@ -214,21 +250,25 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
     const auto t0 = Clock::now();
     bool hit = false;
     specialised =
-        specialise_spirv_cached(spirv, bytes, {features, features2, leaf_prims ? 1u : 0u}, hit);
+        specialise_spirv_cached(spirv, bytes, {features, features2, leaf_prims ? 1u : 0u,
+                                               texel_tables ? 1u : 0u},
+                                hit);
     seconds_specialise += since(t0);
     spirv = specialised.data();
     bytes = specialised.size() * sizeof(std::uint32_t);
   }
   vk::ShaderModule module = dev.createShaderModule({.codeSize = bytes, .pCode = spirv});
   // Constant 0: FEATURES (the scene's feature word); constant 1: FEATURES2 (the second word,
-  // the texture families of layout.h); constant 2: LEAF_PRIMS (bindings.glsl).
-  const std::uint32_t words[3] = {features, features2, leaf_prims ? 1u : 0u};
-  const vk::SpecializationMapEntry entries[3] = {
-      {.constantID = 0, .offset = 0, .size = sizeof(std::uint32_t)},
-      {.constantID = 1, .offset = sizeof(std::uint32_t), .size = sizeof(std::uint32_t)},
-      {.constantID = 2, .offset = 2 * sizeof(std::uint32_t), .size = sizeof(std::uint32_t)}};
+  // the texture families of layout.h); constant 2: LEAF_PRIMS; constant 3: TEXEL_TABLES
+  // (bindings.glsl).
+  const std::uint32_t words[4] = {features, features2, leaf_prims ? 1u : 0u,
+                                  texel_tables ? 1u : 0u};
+  vk::SpecializationMapEntry entries[4];
+  for (std::uint32_t k = 0; k < 4; ++k)
+    entries[k] = vk::SpecializationMapEntry{
+        .constantID = k, .offset = k * 4u, .size = sizeof(std::uint32_t)};
   vk::SpecializationInfo spec{
-      .mapEntryCount = 3, .pMapEntries = entries, .dataSize = sizeof(words), .pData = words};
+      .mapEntryCount = 4, .pMapEntries = entries, .dataSize = sizeof(words), .pData = words};
   vk::ComputePipelineCreateInfo info{
       .stage = {.stage = vk::ShaderStageFlagBits::eCompute,
                 .module = module,
@@ -240,9 +280,10 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
   if (result.result != vk::Result::eSuccess) throw std::runtime_error("pipeline creation failed");
   p.pipeline = result.value;
 
-  vk::DescriptorPoolSize size{.type = vk::DescriptorType::eStorageBuffer,
-                              .descriptorCount = std::uint32_t(bindings.size())};
-  p.pool = dev.createDescriptorPool({.maxSets = 1, .poolSizeCount = 1, .pPoolSizes = &size});
+  const vk::DescriptorPoolSize sizes[2] = {
+      {.type = vk::DescriptorType::eStorageBuffer, .descriptorCount = std::uint32_t(bindings.size())},
+      {.type = vk::DescriptorType::eUniformTexelBuffer, .descriptorCount = TEXEL_VIEW_COUNT}};
+  p.pool = dev.createDescriptorPool({.maxSets = 1, .poolSizeCount = 2, .pPoolSizes = sizes});
   p.set = dev.allocateDescriptorSets(
       {.descriptorPool = p.pool, .descriptorSetCount = 1, .pSetLayouts = &p.set_layout})[0];
   std::vector<vk::DescriptorBufferInfo> infos;
@@ -255,6 +296,12 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
                       .descriptorCount = 1,
                       .descriptorType = vk::DescriptorType::eStorageBuffer,
                       .pBufferInfo = &infos[i]});
+  for (std::uint32_t k = 0; k < views_.size(); ++k)
+    writes.push_back({.dstSet = p.set,
+                      .dstBinding = BINDING_BVH_TEXELS + k,
+                      .descriptorCount = 1,
+                      .descriptorType = vk::DescriptorType::eUniformTexelBuffer,
+                      .pTexelBufferView = &views_[k]});
   dev.updateDescriptorSets(writes, {});
   return p;
 }

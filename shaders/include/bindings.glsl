@@ -17,6 +17,10 @@ layout(constant_id = 1) const uint FEATURES2 = 0xffffffffu;
 // the scene's is too large for one binding and leaves read prim_refs, triangles and vertices.
 // A table format, not a feature: the host sets it for every pipeline, the probe's included.
 layout(constant_id = 2) const uint LEAF_PRIMS = 1u;
+// Specialization constant 3: 1 when the geometry tables are read through their uniform texel
+// views (BINDING_*_TEXELS of layout.h), 0 when one of them is beyond the device's
+// maxTexelBufferElements and all are read as storage buffers. A table format, like LEAF_PRIMS.
+layout(constant_id = 3) const uint TEXEL_TABLES = 1u;
 
 layout(std430, set = 0, binding = BINDING_GLOBALS) restrict readonly buffer GlobalsBuffer {
   Globals globals;
@@ -27,6 +31,12 @@ layout(std430, set = 0, binding = BINDING_GLOBALS) restrict readonly buffer Glob
 // Wide BVH nodes (BvhWideNode, docs/path-spec.md 3.1), read as four uvec4 each: lavapipe turns
 // every storage-buffer load into a loop over its lanes, so wide loads beat scalar ones.
 BASALT_TABLE(BVH_NODES, BvhNodeBuffer, uvec4, bvh_words);
+// The texel views of the geometry tables (read when TEXEL_TABLES is 1).
+layout(set = 0, binding = BINDING_BVH_TEXELS) uniform usamplerBuffer bvh_texels;
+layout(set = 0, binding = BINDING_LEAF_TEXELS) uniform usamplerBuffer leaf_texels;
+layout(set = 0, binding = BINDING_TRIANGLE_TEXELS) uniform usamplerBuffer triangle_texels;
+layout(set = 0, binding = BINDING_VERTEX_TEXELS) uniform usamplerBuffer vertex_texels;
+layout(set = 0, binding = BINDING_MESH_TEXELS) uniform usamplerBuffer mesh_texels;
 BASALT_TABLE(PRIM_REFS, PrimRefBuffer, uint, prim_refs);
 BASALT_TABLE(LEAF_PRIMS, LeafPrimBuffer, vec4, leaf_prims);
 BASALT_TABLE(TRIANGLES, TriangleBuffer, Triangle, triangles);
@@ -57,6 +67,40 @@ BASALT_TABLE(TEXELS3, TexelBuffer3, float, texels3);
 BASALT_TABLE(TEX_DATA, TexDataBuffer, float, tex_data);
 // The first SAMPLER_PRIME_COUNT primes (docs/sampler-spec.md 3).
 BASALT_TABLE(SAMPLER_DATA, SamplerDataBuffer, uint, sampler_data);
+
+// The geometry tables' entries, through the texel views or the storage tables (TEXEL_TABLES).
+// uvec4 i of the wide BVH (node n: 4n .. 4n + 3).
+uvec4 bvh_word(uint i) { return TEXEL_TABLES != 0u ? texelFetch(bvh_texels, int(i)) : bvh_words[i]; }
+// Number of uvec4 in the wide BVH table (4 per node; 1 for a scene without primitives).
+uint bvh_word_count() {
+  return TEXEL_TABLES != 0u ? uint(textureSize(bvh_texels)) : uint(bvh_words.length());
+}
+// vec4 i of the leaf_prims table.
+vec4 leaf_prim(uint i) {
+  return TEXEL_TABLES != 0u ? uintBitsToFloat(texelFetch(leaf_texels, int(i))) : leaf_prims[i];
+}
+// Triangle i.
+Triangle triangle_at(uint i) {
+  if (TEXEL_TABLES == 0u) return triangles[i];
+  uvec4 w = texelFetch(triangle_texels, int(i));
+  return Triangle(w.x, w.y, w.z, w.w);
+}
+// Position and u of vertex i.
+vec4 vertex_p_u(uint i) {
+  return TEXEL_TABLES != 0u ? uintBitsToFloat(texelFetch(vertex_texels, int(2u * i)))
+                            : vertices[i].p_u;
+}
+// Normal and v of vertex i.
+vec4 vertex_n_v(uint i) {
+  return TEXEL_TABLES != 0u ? uintBitsToFloat(texelFetch(vertex_texels, int(2u * i + 1u)))
+                            : vertices[i].n_v;
+}
+// Mesh i.
+Mesh mesh_at(uint i) {
+  if (TEXEL_TABLES == 0u) return meshes[i];
+  uvec4 w = texelFetch(mesh_texels, int(i));
+  return Mesh(w.x, w.y, w.z, w.w);
+}
 
 // Float g of the texel table, which spans up to TEXEL_CHUNK_COUNT bindings of 2^25 floats
 // (layout.h): every texel read goes through here.

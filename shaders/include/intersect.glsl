@@ -132,9 +132,9 @@ float intersect_sphere(Ray ray, uint sph) {
 
 // The watertight test against triangle tri of the triangle table.
 float intersect_triangle(Ray ray, RayTri rt, uint tri, out vec2 b12) {
-  Triangle T = triangles[tri];
-  return intersect_triangle_at(ray, rt, vertices[T.v0].p_u.xyz, vertices[T.v1].p_u.xyz,
-                               vertices[T.v2].p_u.xyz, b12);
+  Triangle T = triangle_at(tri);
+  return intersect_triangle_at(ray, rt, vertex_p_u(T.v0).xyz, vertex_p_u(T.v1).xyz,
+                               vertex_p_u(T.v2).xyz, b12);
 }
 
 // Tests the ray against one prim reference; t in (0, tmax) or -1, barycentrics b1, b2.
@@ -204,15 +204,15 @@ Hit bvh_trace(Ray ray, bool any_hit) {
   int sp = 0;
   // A scene without primitives has no nodes (host/accel/bvh.h); its table is bound as a
   // 16-byte buffer, shorter than one node.
-  uint item = bvh_words.length() < 4 ? INVALID_INDEX : 0u;
+  uint item = bvh_word_count() < 4u ? INVALID_INDEX : 0u;
   const float FAR = uintBitsToFloat(0x7f800000u);
   while (item != INVALID_INDEX) {
     if ((item & BVH_WIDE_LEAF) == 0u) {
       // A wide node: test its four children.
-      uvec4 w0 = bvh_words[4u * item];
-      uvec4 qlo = bvh_words[4u * item + 1u];
-      uvec4 qhi = bvh_words[4u * item + 2u];
-      uvec4 ch = bvh_words[4u * item + 3u];
+      uvec4 w0 = bvh_word(4u * item);
+      uvec4 qlo = bvh_word(4u * item + 1u);
+      uvec4 qhi = bvh_word(4u * item + 2u);
+      uvec4 ch = bvh_word(4u * item + 3u);
       float k0 = bvh_child_test(w0, qlo, qhi, ch.x, 0u, ray.o, inv, neg, best.t);
       float k1 = bvh_child_test(w0, qlo, qhi, ch.y, 1u, ray.o, inv, neg, best.t);
       float k2 = bvh_child_test(w0, qlo, qhi, ch.z, 2u, ray.o, inv, neg, best.t);
@@ -257,15 +257,15 @@ Hit bvh_trace(Ray ray, bool any_hit) {
         if (LEAF_PRIMS != 0u) {
           // The positions in leaf order: three vec4 loads instead of the reference, the
           // triangle and three vertices (lavapipe loops over lanes for every load).
-          vec4 q0 = leaf_prims[3u * k];
+          vec4 q0 = leaf_prim(3u * k);
           ref = floatBitsToUint(q0.w);
           b12 = vec2(0.0);
           t = -1.0;
           if ((ref & PRIM_SPHERE_BIT) != 0u) {
             if ((FEATURES & FEATURE_SPHERES) != 0u) t = intersect_sphere(ray, ref & PRIM_INDEX_MASK);
           } else if ((FEATURES & FEATURE_TRIANGLES) != 0u) {
-            t = intersect_triangle_at(ray, rt, q0.xyz, leaf_prims[3u * k + 1u].xyz,
-                                      leaf_prims[3u * k + 2u].xyz, b12);
+            t = intersect_triangle_at(ray, rt, q0.xyz, leaf_prim(3u * k + 1u).xyz,
+                                      leaf_prim(3u * k + 2u).xyz, b12);
           }
         } else {
           ref = prim_refs[k];

@@ -44,10 +44,13 @@ vec3 cross_exact(vec3 a, vec3 b) {
 // dndu, dndv of textures-spec 3.2 (zero without).
 void triangle_params(uint tri, vec3 b, out vec2 uv, out vec3 dpdu, out vec3 dpdv, out vec3 dndu,
                      out vec3 dndv) {
-  Triangle T = triangles[tri];
-  Vertex a = vertices[T.v0], bb = vertices[T.v1], c = vertices[T.v2];
+  Triangle T = triangle_at(tri);
+  Vertex a = Vertex(vertex_p_u(T.v0), vertex_n_v(T.v0));
+  Vertex bb = Vertex(vertex_p_u(T.v1), vertex_n_v(T.v1));
+  Vertex c = Vertex(vertex_p_u(T.v2), vertex_n_v(T.v2));
+  uint mflags = mesh_at(T.mesh).flags;
   vec2 uv0 = vec2(0.0, 0.0), uv1 = vec2(1.0, 0.0), uv2 = vec2(1.0, 1.0);
-  if ((meshes[T.mesh].flags & SHAPE_FLAG_HAS_UV) != 0u) {
+  if ((mflags & SHAPE_FLAG_HAS_UV) != 0u) {
     uv0 = vec2(a.p_u.w, a.n_v.w);
     uv1 = vec2(bb.p_u.w, bb.n_v.w);
     uv2 = vec2(c.p_u.w, c.n_v.w);
@@ -62,7 +65,7 @@ void triangle_params(uint tri, vec3 b, out vec2 uv, out vec3 dpdu, out vec3 dpdv
   bool degenerate = abs(det) < 1e-9;
   dndu = vec3(0.0);
   dndv = vec3(0.0);
-  if ((FEATURES & FEATURE_SHADING_NORMALS) != 0u && (meshes[T.mesh].flags & SHAPE_FLAG_HAS_NORMALS) != 0u) {
+  if ((FEATURES & FEATURE_SHADING_NORMALS) != 0u && (mflags & SHAPE_FLAG_HAS_NORMALS) != 0u) {
     vec3 n0 = a.n_v.xyz, n1 = bb.n_v.xyz, n2 = c.n_v.xyz;
     if (degenerate) {
       // The Duff pair of the unnormalised dn (pbrt-v4 CoordinateSystem).
@@ -168,11 +171,11 @@ float sphere_bound(vec4 cr) {
 // of |b0 p0| + |b1 p1| + |b2 p2|. The interpolations and m are precise (no fma
 // contraction), as on the CPU (-ffp-contract=off).
 void triangle_geometry(uint tri, vec3 b, out vec3 p, out vec3 ng, out vec3 ns, out float m) {
-  Triangle T = triangles[tri];
-  uint flags = meshes[T.mesh].flags;
-  vec3 p0 = vertices[T.v0].p_u.xyz;
-  vec3 p1 = vertices[T.v1].p_u.xyz;
-  vec3 p2 = vertices[T.v2].p_u.xyz;
+  Triangle T = triangle_at(tri);
+  uint flags = mesh_at(T.mesh).flags;
+  vec3 p0 = vertex_p_u(T.v0).xyz;
+  vec3 p1 = vertex_p_u(T.v1).xyz;
+  vec3 p2 = vertex_p_u(T.v2).xyz;
   precise vec3 bp0 = b.x * p0;
   precise vec3 bp1 = b.y * p1;
   precise vec3 bp2 = b.z * p2;
@@ -182,8 +185,8 @@ void triangle_geometry(uint tri, vec3 b, out vec3 p, out vec3 ng, out vec3 ns, o
   m = max(mv.x, max(mv.y, mv.z));
   ng = safe_normalize(cross(p0 - p2, p1 - p2));
   if ((FEATURES & FEATURE_SHADING_NORMALS) != 0u && (flags & SHAPE_FLAG_HAS_NORMALS) != 0u) {
-    precise vec3 n = b.x * vertices[T.v0].n_v.xyz + b.y * vertices[T.v1].n_v.xyz +
-                     b.z * vertices[T.v2].n_v.xyz;
+    precise vec3 n = b.x * vertex_n_v(T.v0).xyz + b.y * vertex_n_v(T.v1).xyz +
+                     b.z * vertex_n_v(T.v2).xyz;
     ns = safe_normalize(n);
     if (ns.x == 0.0 && ns.y == 0.0 && ns.z == 0.0) ns = ng;  // zero (or underflowed) normal
     if (dot(ng, ns) < 0.0) ng = -ng;
@@ -248,7 +251,7 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
   } else if ((FEATURES & FEATURE_TRIANGLES) != 0u) {
     uint tri = hit.prim;
     triangle_geometry(tri, vec3(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2), sp.p, sp.ng, sp.ns, sp.m);
-    Mesh m = meshes[triangles[tri].mesh];
+    Mesh m = mesh_at(triangle_at(tri).mesh);
     sp.material = m.material;
     vertex_normals = (FEATURES & FEATURE_SHADING_NORMALS) != 0u &&
                      (m.flags & SHAPE_FLAG_HAS_NORMALS) != 0u;

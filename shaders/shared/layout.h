@@ -54,7 +54,18 @@ using mat4 = glm::mat4;
                                //   a sphere's entry holds only that), so a leaf's triangles are
                                //   read without the triangle and vertex tables; 16 zero bytes
                                //   when absent (specialization constant LEAF_PRIMS = 0)
-#define BINDING_COUNT 23
+#define BINDING_COUNT 23  // the storage tables above, one buffer each
+// Uniform texel views (R32G32B32A32_UINT, one uvec4 a texel) of the geometry tables above, bound
+// beside them: lavapipe fetches a texel with one branch-free gather where it turns a
+// storage-buffer load into a loop over its lanes with a branch each (docs/performance.md).
+// Read through them when specialization constant 3, TEXEL_TABLES, is 1 (every view within
+// the device's maxTexelBufferElements), else through the storage tables.
+#define BINDING_BVH_TEXELS 23       // view of BINDING_BVH_NODES
+#define BINDING_LEAF_TEXELS 24      // view of BINDING_LEAF_PRIMS
+#define BINDING_TRIANGLE_TEXELS 25  // view of BINDING_TRIANGLES
+#define BINDING_VERTEX_TEXELS 26    // view of BINDING_VERTICES
+#define BINDING_MESH_TEXELS 27      // view of BINDING_MESHES
+#define TEXEL_VIEW_COUNT 5
 // Texel index g (a float index into the whole texel table) lives in chunk g >> TEXEL_CHUNK_SHIFT
 // at index g & (TEXEL_CHUNK - 1) of that chunk's binding.
 #define TEXEL_CHUNK_SHIFT 25u

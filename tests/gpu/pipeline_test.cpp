@@ -70,29 +70,30 @@ std::vector<glm::vec4> render_variant(const SceneTables& t, std::uint32_t featur
   return gpu.accum();
 }
 
-// The leaf_prims table (leaf-ordered triangle positions) changes which loads a leaf makes,
-// never a hit: a scene renders the same image, bit for bit, without it (as it must when the
-// table does not fit one binding).
-TEST(LeafPrims, SameImageWithoutTheTable) {
+// The table formats change which loads a ray makes, never a result: a scene renders the same
+// image, bit for bit, without the leaf_prims table (leaf-ordered triangle positions; as it must
+// when the table does not fit one binding) and without the geometry tables' texel views
+// (TEXEL_TABLES = 0; as it must when one is beyond the device's maxTexelBufferElements).
+TEST(TableFormats, SameImageWithoutLeafPrimsOrTexelViews) {
   for (const char* file : {"scenes/cornell-box.pbrt", "scenes/spheres-lights.pbrt"}) {
     const SceneTables t = tables_from_file(source_path(file), 64, 48);
-    std::vector<glm::vec4> a, b;
-    {
-      vkx::GpuRenderer gpu(gpu_context(), t);
-      EXPECT_TRUE(gpu.leaf_prims);
-      gpu.render(0, 2);
-      a = gpu.accum();
-    }
-    {
-      vkx::GpuRenderer::leaf_prims_max_bytes = 1;
+    std::vector<glm::vec4> images[3];
+    for (int k = 0; k < 3; ++k) {
+      vkx::GpuRenderer::leaf_prims_max_bytes = k == 1 ? 1 : 0;
+      vkx::GpuRenderer::texel_views_max_texels = k == 2 ? 1 : 0;
       vkx::GpuRenderer gpu(gpu_context(), t);
       vkx::GpuRenderer::leaf_prims_max_bytes = 0;
-      EXPECT_FALSE(gpu.leaf_prims);
+      vkx::GpuRenderer::texel_views_max_texels = 0;
+      EXPECT_EQ(gpu.leaf_prims, k != 1) << file;
+      EXPECT_EQ(gpu.texel_tables, k != 2) << file;
       gpu.render(0, 2);
-      b = gpu.accum();
+      images[k] = gpu.accum();
     }
-    ASSERT_EQ(a.size(), b.size());
-    EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(glm::vec4)), 0) << file;
+    for (int k = 1; k < 3; ++k) {
+      ASSERT_EQ(images[k].size(), images[0].size());
+      EXPECT_EQ(std::memcmp(images[k].data(), images[0].data(), images[0].size() * sizeof(glm::vec4)), 0)
+          << file << (k == 1 ? ": without leaf_prims" : ": without texel views");
+    }
   }
 }
 
@@ -275,18 +276,26 @@ TEST(Trace, SameHitsAsTheProbeAndTheCpu) {
     EXPECT_EQ(differ, 0u);
     EXPECT_EQ(differ_cpu, 0u);
     EXPECT_TRUE(gpu.leaf_prims);
+    EXPECT_TRUE(gpu.texel_tables);
     // Without the leaf_prims table (LEAF_PRIMS = 0: leaves read the reference, triangle and
-    // vertex tables), the trace stage answers bit for bit the same.
-    vkx::GpuRenderer::leaf_prims_max_bytes = 1;
-    vkx::GpuRenderer fallback(gpu_context(), t, t.features, vkx::ShaderVariant::automatic, false);
-    vkx::GpuRenderer::leaf_prims_max_bytes = 0;
-    EXPECT_FALSE(fallback.leaf_prims);
-    const std::vector<gpu::TraceHit> fh = fallback.trace(rays, false), fa = fallback.trace(rays, true);
-    std::size_t differ_fallback = 0;
-    for (std::size_t i = 0; i < rays.size(); ++i)
-      differ_fallback += std::memcmp(&fh[i], &hits[i], sizeof(gpu::TraceHit)) != 0 ||
-                         (fa[i].prim != gpu::INVALID_INDEX) != (any[i].prim != gpu::INVALID_INDEX);
-    EXPECT_EQ(differ_fallback, 0u);
+    // vertex tables) and then also without the texel views (TEXEL_TABLES = 0: storage-buffer
+    // loads), the trace stage answers bit for bit the same.
+    for (int k = 1; k <= 2; ++k) {
+      vkx::GpuRenderer::leaf_prims_max_bytes = 1;
+      vkx::GpuRenderer::texel_views_max_texels = k == 2 ? 1 : 0;
+      vkx::GpuRenderer fallback(gpu_context(), t, t.features, vkx::ShaderVariant::automatic, false);
+      vkx::GpuRenderer::leaf_prims_max_bytes = 0;
+      vkx::GpuRenderer::texel_views_max_texels = 0;
+      EXPECT_FALSE(fallback.leaf_prims);
+      EXPECT_EQ(fallback.texel_tables, k == 1);
+      const std::vector<gpu::TraceHit> fh = fallback.trace(rays, false),
+                                       fa = fallback.trace(rays, true);
+      std::size_t differ_fallback = 0;
+      for (std::size_t i = 0; i < rays.size(); ++i)
+        differ_fallback += std::memcmp(&fh[i], &hits[i], sizeof(gpu::TraceHit)) != 0 ||
+                           (fa[i].prim != gpu::INVALID_INDEX) != (any[i].prim != gpu::INVALID_INDEX);
+      EXPECT_EQ(differ_fallback, 0u) << (k == 1 ? "without leaf_prims" : "without texel views");
+    }
     EXPECT_GT(hit_count, rays.size() / 10);  // not vacuous: thousands of hits (open scenes: ~20 %)
   }
 }
