@@ -79,19 +79,43 @@ std::vector<glm::vec4> leaf_prim_table(const SceneTables& t) {
   return out;
 }
 
-/// The storage table that texel view k (binding BINDING_BVH_TEXELS + k, layout.h) shows.
-constexpr std::uint32_t kTexelViewOf[TEXEL_VIEW_COUNT] = {
-    BINDING_BVH_NODES, BINDING_LEAF_PRIMS, BINDING_TRIANGLES, BINDING_VERTICES, BINDING_MESHES};
-static_assert(BINDING_LEAF_TEXELS == BINDING_BVH_TEXELS + 1 &&
-                  BINDING_TRIANGLE_TEXELS == BINDING_BVH_TEXELS + 2 &&
-                  BINDING_VERTEX_TEXELS == BINDING_BVH_TEXELS + 3 &&
-                  BINDING_MESH_TEXELS == BINDING_BVH_TEXELS + 4 &&
-                  BINDING_BVH_TEXELS == BINDING_COUNT,
-              "texel view bindings follow the storage tables in kTexelViewOf's order");
+/// Texel view k (binding BINDING_BVH_TEXELS + k, layout.h): the storage table it shows and
+/// its texel format (four or one 32-bit words).
+struct TexelView {
+  std::uint32_t table;
+  vk::Format format;
+  std::uint32_t texel_bytes;
+};
+constexpr TexelView kTexelViews[TEXEL_VIEW_COUNT] = {
+    {BINDING_BVH_NODES, vk::Format::eR32G32B32A32Uint, 16},
+    {BINDING_LEAF_PRIMS, vk::Format::eR32G32B32A32Uint, 16},
+    {BINDING_TRIANGLES, vk::Format::eR32G32B32A32Uint, 16},
+    {BINDING_VERTICES, vk::Format::eR32G32B32A32Uint, 16},
+    {BINDING_MESHES, vk::Format::eR32G32B32A32Uint, 16},
+    {BINDING_TEXELS, vk::Format::eR32Uint, 4},
+    {BINDING_TEXELS1, vk::Format::eR32Uint, 4},
+    {BINDING_TEXELS2, vk::Format::eR32Uint, 4},
+    {BINDING_TEXELS3, vk::Format::eR32Uint, 4},
+    {BINDING_TEX_DATA, vk::Format::eR32Uint, 4},
+    {BINDING_SAMPLER_DATA, vk::Format::eR32Uint, 4}};
+static_assert(BINDING_BVH_TEXELS == BINDING_COUNT && BINDING_LEAF_TEXELS == BINDING_COUNT + 1 &&
+                  BINDING_TRIANGLE_TEXELS == BINDING_COUNT + 2 &&
+                  BINDING_VERTEX_TEXELS == BINDING_COUNT + 3 &&
+                  BINDING_MESH_TEXELS == BINDING_COUNT + 4 &&
+                  BINDING_TEXELS0_TEXELS == BINDING_COUNT + 5 &&
+                  BINDING_TEXELS1_TEXELS == BINDING_COUNT + 6 &&
+                  BINDING_TEXELS2_TEXELS == BINDING_COUNT + 7 &&
+                  BINDING_TEXELS3_TEXELS == BINDING_COUNT + 8 &&
+                  BINDING_TEX_DATA_TEXELS == BINDING_COUNT + 9 &&
+                  BINDING_SAMPLER_TEXELS == BINDING_COUNT + 10 &&
+                  BINDING_BVH_TEXELS + TEXEL_VIEW_COUNT <= BINDING_PROBE_IN,
+              "texel view bindings follow the storage tables in kTexelViews' order");
 
-/// True if binding b is a storage table that one of the texel views shows.
-bool has_texel_view(std::uint32_t b) {
-  return std::find(std::begin(kTexelViewOf), std::end(kTexelViewOf), b) != std::end(kTexelViewOf);
+/// The texel view of storage table b, or null if it has none.
+const TexelView* texel_view_of(std::uint32_t b) {
+  for (const TexelView& v : kTexelViews)
+    if (v.table == b) return &v;
+  return nullptr;
 }
 
 }  // namespace
@@ -172,7 +196,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   tables_.resize(BINDING_COUNT);
   for (int i = 0; i < BINDING_COUNT; ++i) {
     tables_[i] = ctx.create_buffer(
-        src[i].bytes, has_texel_view(i) ? usage | vk::BufferUsageFlagBits::eUniformTexelBuffer : usage);
+        src[i].bytes, texel_view_of(i) ? usage | vk::BufferUsageFlagBits::eUniformTexelBuffer : usage);
     if (src[i].data && src[i].bytes) std::memcpy(tables_[i].mapped, src[i].data, src[i].bytes);
     else if (tables_[i].mapped) std::memset(tables_[i].mapped, 0, src[i].bytes);
     device_bytes += tables_[i].size;
@@ -182,14 +206,15 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   const std::uint64_t texel_limit =
       texel_views_max_texels ? texel_views_max_texels : ctx.info().max_texel_buffer_elements;
   texel_tables = true;
-  for (std::uint32_t b : kTexelViewOf)
-    texel_tables = texel_tables && tables_[b].size / 16 <= texel_limit;
-  for (std::uint32_t b : kTexelViewOf) {
-    const std::uint64_t texels = std::min<std::uint64_t>(tables_[b].size / 16, texel_limit);
-    views_.push_back(ctx.device.createBufferView({.buffer = tables_[b].buffer,
-                                                  .format = vk::Format::eR32G32B32A32Uint,
+  for (const TexelView& v : kTexelViews)
+    texel_tables = texel_tables && tables_[v.table].size / v.texel_bytes <= texel_limit;
+  for (const TexelView& v : kTexelViews) {
+    const std::uint64_t texels =
+        std::min<std::uint64_t>(tables_[v.table].size / v.texel_bytes, texel_limit);
+    views_.push_back(ctx.device.createBufferView({.buffer = tables_[v.table].buffer,
+                                                  .format = v.format,
                                                   .offset = 0,
-                                                  .range = texels * 16}));
+                                                  .range = texels * v.texel_bytes}));
   }
   seconds_upload = since(t0);
 

@@ -71,11 +71,11 @@ class GpuRenderer {
   /// that path.
   static inline std::size_t leaf_prims_max_bytes = 0;
   bool leaf_prims = false;         // the leaf_prims table is bound (LEAF_PRIMS = 1)
-  /// Most texels (16 bytes each) a geometry table's uniform texel view may hold; 0: the
-  /// device's maxTexelBufferElements. When one is larger, the shaders read the storage tables
-  /// (TEXEL_TABLES = 0); tests set 1 to take that path.
+  /// Most texels a table's uniform texel view may hold (BINDING_*_TEXELS of layout.h); 0: the
+  /// device's maxTexelBufferElements. When one table is larger, the shaders read every table
+  /// as a storage buffer (TEXEL_TABLES = 0); tests set 1 to take that path.
   static inline std::uint64_t texel_views_max_texels = 0;
-  bool texel_tables = false;       // the geometry tables are read through texel views
+  bool texel_tables = false;       // the tables are read through their texel views
 
   double seconds_upload = 0.0;    // table upload
   double seconds_pipeline = 0.0;  // pipeline creation plus the driver's compile at first use
@@ -102,8 +102,8 @@ class GpuRenderer {
   std::uint32_t slots_;   // invocation slots: pixels padded to whole 8x8 tiles
   std::uint32_t stride_;  // tile shuffle multiplier, coprime with the tile count
   std::vector<Buffer> tables_;  // indexed by BINDING_*
-  // The uniform texel views of the geometry tables: BINDING_BVH_TEXELS + k views the table
-  // kTexelViewOf[k] (gpu_renderer.cpp); bound to every pipeline.
+  // The uniform texel views: BINDING_BVH_TEXELS + k views the table of kTexelViews[k]
+  // (gpu_renderer.cpp); bound to every pipeline.
   std::vector<vk::BufferView> views_;
   Pipeline render_{};
   // A pipeline over an input and an output buffer of `capacity` entries (BINDING_PROBE_IN,

@@ -17,7 +17,7 @@ layout(constant_id = 1) const uint FEATURES2 = 0xffffffffu;
 // the scene's is too large for one binding and leaves read prim_refs, triangles and vertices.
 // A table format, not a feature: the host sets it for every pipeline, the probe's included.
 layout(constant_id = 2) const uint LEAF_PRIMS = 1u;
-// Specialization constant 3: 1 when the geometry tables are read through their uniform texel
+// Specialization constant 3: 1 when the hot tables are read through their uniform texel
 // views (BINDING_*_TEXELS of layout.h), 0 when one of them is beyond the device's
 // maxTexelBufferElements and all are read as storage buffers. A table format, like LEAF_PRIMS.
 layout(constant_id = 3) const uint TEXEL_TABLES = 1u;
@@ -37,6 +37,12 @@ layout(set = 0, binding = BINDING_LEAF_TEXELS) uniform usamplerBuffer leaf_texel
 layout(set = 0, binding = BINDING_TRIANGLE_TEXELS) uniform usamplerBuffer triangle_texels;
 layout(set = 0, binding = BINDING_VERTEX_TEXELS) uniform usamplerBuffer vertex_texels;
 layout(set = 0, binding = BINDING_MESH_TEXELS) uniform usamplerBuffer mesh_texels;
+layout(set = 0, binding = BINDING_TEXELS0_TEXELS) uniform usamplerBuffer texels0_texels;
+layout(set = 0, binding = BINDING_TEXELS1_TEXELS) uniform usamplerBuffer texels1_texels;
+layout(set = 0, binding = BINDING_TEXELS2_TEXELS) uniform usamplerBuffer texels2_texels;
+layout(set = 0, binding = BINDING_TEXELS3_TEXELS) uniform usamplerBuffer texels3_texels;
+layout(set = 0, binding = BINDING_TEX_DATA_TEXELS) uniform usamplerBuffer tex_data_texels;
+layout(set = 0, binding = BINDING_SAMPLER_TEXELS) uniform usamplerBuffer sampler_texels;
 BASALT_TABLE(PRIM_REFS, PrimRefBuffer, uint, prim_refs);
 BASALT_TABLE(LEAF_PRIMS, LeafPrimBuffer, vec4, leaf_prims);
 BASALT_TABLE(TRIANGLES, TriangleBuffer, Triangle, triangles);
@@ -106,10 +112,26 @@ Mesh mesh_at(uint i) {
 // (layout.h): every texel read goes through here.
 float texel_at(uint g) {
   uint c = g >> TEXEL_CHUNK_SHIFT, i = g & ((1u << TEXEL_CHUNK_SHIFT) - 1u);
+  if (TEXEL_TABLES != 0u) {
+    if (c == 0u) return uintBitsToFloat(texelFetch(texels0_texels, int(i)).x);
+    if (c == 1u) return uintBitsToFloat(texelFetch(texels1_texels, int(i)).x);
+    if (c == 2u) return uintBitsToFloat(texelFetch(texels2_texels, int(i)).x);
+    return uintBitsToFloat(texelFetch(texels3_texels, int(i)).x);
+  }
   if (c == 0u) return texels[i];
   if (c == 1u) return texels1[i];
   if (c == 2u) return texels2[i];
   return texels3[i];
+}
+
+// Float i of the shared texture tables (BINDING_TEX_DATA).
+float tex_data_at(uint i) {
+  return TEXEL_TABLES != 0u ? uintBitsToFloat(texelFetch(tex_data_texels, int(i)).x) : tex_data[i];
+}
+
+// Word i of the sampler tables (BINDING_SAMPLER_DATA).
+uint sampler_data_at(uint i) {
+  return TEXEL_TABLES != 0u ? texelFetch(sampler_texels, int(i)).x : sampler_data[i];
 }
 
 #endif

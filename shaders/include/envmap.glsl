@@ -257,7 +257,7 @@ float portal_integral(uint o, uint nx, uint ny, vec2 bmin, vec2 bmax) {
       int i = x0 + (t >> 1), jj = y0 + (t & 1);
       float v = 0.0;
       if (i > 0 && jj > 0)
-        v = tex_data[sat + uint(min(jj - 1, int(ny) - 1)) * nx + uint(min(i - 1, int(nx) - 1))];
+        v = tex_data_at(sat + uint(min(jj - 1, int(ny) - 1)) * nx + uint(min(i - 1, int(nx) - 1)));
       precise float wx = (t >> 1) != 0 ? dx : 1.0 - dx;
       precise float wy = (t & 1) != 0 ? dy : 1.0 - dy;
       sum += (wx * wy) * v;
@@ -344,7 +344,7 @@ void portal_eval_uv(uint light, vec3 w, vec3 ray_o, vec3 p_ref, out vec2 uv_le,
   integral = 0.0;
   if (ok_pdf && j_pdf != 0.0 && ok_p) {
     uint o = lights[light].data.y;
-    integral = portal_integral(o, uint(tex_data[o]), uint(tex_data[o + 1u]), min(a_p, b_p),
+    integral = portal_integral(o, uint(tex_data_at(o)), uint(tex_data_at(o + 1u)), min(a_p, b_p),
                                max(a_p, b_p));
   }
 }
@@ -371,7 +371,7 @@ bool portal_sample_uv(uint light, vec2 u, vec3 p, out vec2 uv, out float map_pdf
   }
   vec2 bmin = min(ca, cb), bmax = max(ca, cb);
   uint o = lights[light].data.y;
-  uint nx = uint(tex_data[o]), ny = uint(tex_data[o + 1u]);
+  uint nx = uint(tex_data_at(o)), ny = uint(tex_data_at(o + 1u));
   // k = 0 samples x in the window (cmin, cmax) = box, k = 1 samples y in the column c. States:
   // 0 = the normaliser (I, then integral(c)), 1 = P(mid), 2 = P(lo), 3 = P(hi).
   vec2 cmin = bmin, cmax = bmax;
@@ -438,7 +438,7 @@ bool portal_sample_uv(uint light, vec2 u, vec3 p, out vec2 uv, out float map_pdf
   // WindowedPiecewiseConstant2D::Eval at (x, y), divided by I.
   uint ix = uint(min(int(uv.x * float(nx)), int(nx) - 1));
   uint iy = uint(min(int(uv.y * float(ny)), int(ny) - 1));
-  map_pdf = tex_data[o + 4u + iy * nx + ix] / total;
+  map_pdf = tex_data_at(o + 4u + iy * nx + ix) / total;
   return true;
 }
 
@@ -522,8 +522,8 @@ vec3 env_eval(uint light, vec3 w_world, bool compensated, vec3 ray_o, vec3 p_ref
     p = uv;
   }
   uint o = compensated ? lights[light].data.z : lights[light].data.y;
-  uint nu = uint(tex_data[o]), nv = uint(tex_data[o + 1u]);
-  float integral = tex_data[o + 2u];
+  uint nu = uint(tex_data_at(o)), nv = uint(tex_data_at(o + 1u));
+  float integral = tex_data_at(o + 2u);
   int iu, iv;
   if (mapping == ENVMAP_CUBE) {
     // The texel of the lookup (env_image_le), n = nu: tx = min(int(fu n), n - 1),
@@ -540,7 +540,7 @@ vec3 env_eval(uint light, vec3 w_world, bool compensated, vec3 ray_o, vec3 p_ref
   // min(int(uv nx), nx - 1) texel, uv being in [0, 1]).
   uint fi = portal ? o + 4u + uint(iv) * nu + uint(iu)
                    : o + 5u + 2u * nv + uint(iv) * (2u * nu + 2u) + uint(iu);
-  float f = tex_data[fi];
+  float f = tex_data_at(fi);
   float map_pdf = integral > 0.0 ? f / integral : 0.0;
   precise float pd;
   if (portal) {
@@ -592,11 +592,11 @@ bool env_sample(uint light, vec2 u, bool compensated, vec3 p_ref, out vec3 wi, o
   uint mapping = lights[light].data.w;
   bool portal = (FEATURES2 & FEATURE2_ENV_PORTAL) != 0u && mapping == ENVMAP_PORTAL;
   uint o = compensated ? lights[light].data.z : lights[light].data.y;
-  uint nu = uint(tex_data[o]), nv = uint(tex_data[o + 1u]);
+  uint nu = uint(tex_data_at(o)), nv = uint(tex_data_at(o + 1u));
   // Step 0: the marginal (func at o + 4, cdf after it); step 1: the conditional of row v.
   // (A portal samples its windowed distribution instead, portal_sample_uv.)
   uint base = o + 4u, n = nv;
-  float integral = tex_data[o + 2u];
+  float integral = tex_data_at(o + 2u);
   float uk = u.y;
   vec2 uv = vec2(0.0);
   float pdf_v = 0.0, pdf_u = 0.0;
@@ -607,13 +607,13 @@ bool env_sample(uint light, vec2 u, bool compensated, vec3 p_ref, out vec3 wi, o
     uint lo = 0u, hi = n;
     [[dont_unroll]] while (hi - lo > 1u) {
       uint mid = (lo + hi) / 2u;
-      if (tex_data[cdf + mid] <= uk) lo = mid; else hi = mid;
+      if (tex_data_at(cdf + mid) <= uk) lo = mid; else hi = mid;
     }
-    float c0 = tex_data[cdf + lo];
-    precise float width = tex_data[cdf + lo + 1u] - c0;
+    float c0 = tex_data_at(cdf + lo);
+    precise float width = tex_data_at(cdf + lo + 1u) - c0;
     precise float du = uk - c0;
     if (width > 0.0) du = du / width;
-    float p = integral > 0.0 ? tex_data[base + lo] / integral : 0.0;
+    float p = integral > 0.0 ? tex_data_at(base + lo) / integral : 0.0;
     precise float x = (float(lo) + du) / float(n);
     if (k == 0u) {
       uv.y = x;
@@ -621,7 +621,7 @@ bool env_sample(uint light, vec2 u, bool compensated, vec3 p_ref, out vec3 wi, o
       row = lo;
       base = o + 5u + 2u * nv + lo * (2u * nu + 2u);
       n = nu;
-      integral = tex_data[base + 2u * nu + 1u];
+      integral = tex_data_at(base + 2u * nu + 1u);
       uk = u.x;
     } else {
       uv.x = x;

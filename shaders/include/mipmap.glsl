@@ -223,7 +223,7 @@ vec3 mipmap_filter(uint ti, vec2 st, vec2 dst0, vec2 dst1, bool want_float) {
           take = r2 < 1.0;
           if (take) {
             int idx = min(int(r2 * float(EWA_LUT_SIZE)), int(EWA_LUT_SIZE) - 1);
-            w = tex_data[globals.tex_tables.y + uint(idx)];
+            w = tex_data_at(globals.tex_tables.y + uint(idx));
           }
         }
         if (take) {

@@ -7,7 +7,7 @@
 #include "trig.glsl"
 
 // Permutation entry i of the 512-entry table in tex_data.
-int noise_perm(int i) { return int(tex_data[globals.tex_tables.x + uint(i)]); }
+int noise_perm(int i) { return int(tex_data_at(globals.tex_tables.x + uint(i))); }
 
 // Perlin's gradient of hash h at offset (dx, dy, dz) (pbrt-v4 Grad).
 float noise_grad(int x, int y, int z, float dx, float dy, float dz) {
@@ -177,14 +177,14 @@ float turbulence(vec3 p, vec3 dpdx, vec3 dpdy, float omega, int max_octaves) {
 }
 
 // ---- Shirley's solid noise (docs/textures-spec.md section 7; seed 002 11.1.3, 11.1.4) ------
-// Tables at tex_data[globals.tex_tables.z]: G (256 unit vectors, 768 floats x0 y0 z0 x1 ...),
+// Tables at tex_data_at(globals.tex_tables.z): G (256 unit vectors, 768 floats x0 y0 z0 x1 ...),
 // then P (256 floats holding the permutation).
 
 // int(v) of docs/textures-spec.md 4.2 / 7: v clamped to [-2^30, 2^30], then truncated.
 int shirley_int(float v) { return int(clamp(v, -1073741824.0, 1073741824.0)); }
 
 // phi(i) = P[i mod 256], mod non-negative: i & 255 is ((i % 256) + 256) % 256 for every int.
-int shirley_perm(int i) { return int(tex_data[globals.tex_tables.z + 768u + uint(i & 255)]); }
+int shirley_perm(int i) { return int(tex_data_at(globals.tex_tables.z + 768u + uint(i & 255))); }
 
 // w(t) = 2|t|^3 - 3|t|^2 + 1 = (2 a3 - 3 a2) + 1 for a = |t| < 1, else 0.
 float shirley_weight(float t) {
@@ -209,7 +209,7 @@ float shirley_noise(vec3 p) {
     precise float v = p.y - float(j);
     precise float t = p.z - float(k);
     uint g = g0 + 3u * uint(shirley_perm(i + shirley_perm(j + shirley_perm(k))));
-    precise float d = (tex_data[g] * u + tex_data[g + 1u] * v) + tex_data[g + 2u] * t;
+    precise float d = (tex_data_at(g) * u + tex_data_at(g + 1u) * v) + tex_data_at(g + 2u) * t;
     precise float term = ((shirley_weight(u) * shirley_weight(v)) * shirley_weight(t)) * d;
     sum += term;
   }
@@ -249,7 +249,7 @@ vec3 vector_noise(vec3 p) {
     precise float v = p.y - float(j);
     precise float t = p.z - float(k);
     uint g = g0 + 3u * uint(shirley_perm(i + shirley_perm(j + shirley_perm(k))));
-    vec3 grad = vec3(tex_data[g], tex_data[g + 1u], tex_data[g + 2u]);
+    vec3 grad = vec3(tex_data_at(g), tex_data_at(g + 1u), tex_data_at(g + 2u));
     precise float w = (shirley_weight(u) * shirley_weight(v)) * shirley_weight(t);
     precise vec3 term = w * grad;
     sum += term;

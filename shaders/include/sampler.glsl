@@ -252,7 +252,7 @@ float halton_get(uint px, uint py, uint s, uint ld, uint c) {
   if (ld != 0u) {
     uint dim = ld + c;
     if (dim >= SAMPLER_PRIME_COUNT) dim = 2u + (dim - 2u) % (SAMPLER_PRIME_COUNT - 2u);
-    base = sampler_data[dim];
+    base = sampler_data_at(dim);
     rand = globals.sampler_opts.y;
     a = index;
   }
@@ -296,14 +296,14 @@ float zsobol_get(uint px, uint py, uint s, uint ld, uint c) {
 }
 
 // Point i (i < 2^52) of Sobol' dimension dim: the xor of the generator matrix's columns
-// M(dim, j) = sampler_data[SAMPLER_TABLES + dim SOBOL_COLUMNS + j] over i's set bits j
+// M(dim, j) = sampler_data_at(SAMPLER_TABLES + dim SOBOL_COLUMNS + j) over i's set bits j
 // (Sobol' 1967; Joe & Kuo 2008 directions; sampler-spec 3 and 4 sobol).
 uint sobol(uint64_t i, uint dim) {
   uint base = SAMPLER_TABLES + dim * SOBOL_COLUMNS;
   uint lo = uint(i), hi = uint(i >> 32u), v = 0u;
-  [[dont_unroll]] for (; lo != 0u; lo &= lo - 1u) v ^= sampler_data[base + uint(findLSB(lo))];
+  [[dont_unroll]] for (; lo != 0u; lo &= lo - 1u) v ^= sampler_data_at(base + uint(findLSB(lo)));
   [[dont_unroll]] for (; hi != 0u; hi &= hi - 1u)
-    v ^= sampler_data[base + 32u + uint(findLSB(hi))];
+    v ^= sampler_data_at(base + 32u + uint(findLSB(hi)));
   return v;
 }
 
@@ -317,12 +317,12 @@ float sobol_get(uint px, uint py, uint s, uint ld, uint c) {
   uint delta = 0u;
   if (m > 0u) {
     [[dont_unroll]] for (uint b = s; b != 0u; b &= b - 1u)
-      delta ^= sampler_data[SAMPLER_TABLES + SOBOL_COLUMNS + 2u * m + uint(findLSB(b))] >>
+      delta ^= sampler_data_at(SAMPLER_TABLES + SOBOL_COLUMNS + 2u * m + uint(findLSB(b))) >>
                (32u - m);
   }
   uint t = (px << m) | (py ^ delta);
   uint r = 0u;
-  [[dont_unroll]] for (; t != 0u; t &= t - 1u) r ^= sampler_data[SOBOL_INVERSE + uint(findLSB(t))];
+  [[dont_unroll]] for (; t != 0u; t &= t - 1u) r ^= sampler_data_at(SOBOL_INVERSE + uint(findLSB(t)));
   uint64_t i = (uint64_t(s) << (2u * m)) | uint64_t(r);
   // One sobol call site: the pixel pair is dimension c scaled by 2^m and never scrambled;
   // other dimensions restart at 2 past the table's end.
@@ -351,7 +351,7 @@ float pmj02bn_get(uint px, uint py, uint s, uint ld, uint c, bool pair) {
   uint at = pixel ? PMJ_PIXEL_TABLE + 2u * (p * n + s)
                   : SAMPLER_TABLES + 2u * ((inst % PMJ_SETS) * PMJ_SAMPLES + index);
   uint offset = pixel ? 0u : (c == 0u ? hv.y : hv.z);
-  return to_unit(sampler_data[at + c] + offset);
+  return to_unit(sampler_data_at(at + c) + offset);
 }
 
 // Sample value of path dimension d for pixel (px, py) and sample s under the scene's sampler

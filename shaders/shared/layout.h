@@ -65,7 +65,14 @@ using mat4 = glm::mat4;
 #define BINDING_TRIANGLE_TEXELS 25  // view of BINDING_TRIANGLES
 #define BINDING_VERTEX_TEXELS 26    // view of BINDING_VERTICES
 #define BINDING_MESH_TEXELS 27      // view of BINDING_MESHES
-#define TEXEL_VIEW_COUNT 5
+// R32_UINT views (one uint or float bits a texel) of the texture and sampler tables.
+#define BINDING_TEXELS0_TEXELS 28   // view of BINDING_TEXELS (image texels, chunk 0)
+#define BINDING_TEXELS1_TEXELS 29   // view of BINDING_TEXELS1
+#define BINDING_TEXELS2_TEXELS 30   // view of BINDING_TEXELS2
+#define BINDING_TEXELS3_TEXELS 31   // view of BINDING_TEXELS3
+#define BINDING_TEX_DATA_TEXELS 32  // view of BINDING_TEX_DATA
+#define BINDING_SAMPLER_TEXELS 33   // view of BINDING_SAMPLER_DATA
+#define TEXEL_VIEW_COUNT 11
 // Texel index g (a float index into the whole texel table) lives in chunk g >> TEXEL_CHUNK_SHIFT
 // at index g & (TEXEL_CHUNK - 1) of that chunk's binding.
 #define TEXEL_CHUNK_SHIFT 25u
@@ -73,8 +80,8 @@ using mat4 = glm::mat4;
 
 // Probe shaders (tests) add their input and output tables to the same set, well above the
 // scene bindings so that later issues can append scene tables without moving them.
-#define BINDING_PROBE_IN 30
-#define BINDING_PROBE_OUT 31
+#define BINDING_PROBE_IN 48
+#define BINDING_PROBE_OUT 49
 
 // ---- feature bits (specialization constant 0 of the render pipeline) --------------------
 // The host derives the scene's feature set; the pipeline is specialised so that code for
