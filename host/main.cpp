@@ -183,6 +183,7 @@ int run(const Options& opt) {
     accum.assign(std::size_t(st.width) * st.height, glm::vec4(0.0f));
     t0 = Clock::now();
     bar.restart();
+    st.table_bytes = basalt::table_bytes(tables);
     st.rays = basalt::cpu::render(tables, 0, std::uint32_t(st.spp), accum, progress,
                                   &st.nonfinite_samples);
     st.seconds_render = since(t0);
@@ -197,6 +198,7 @@ int run(const Options& opt) {
     st.seconds_upload = gpu.seconds_upload;
     st.seconds_pipeline = gpu.seconds_pipeline;
     st.seconds_specialise = gpu.seconds_specialise;
+    st.table_bytes = gpu.device_bytes;
     st.shader_variant = gpu.variant;
     t0 = Clock::now();
     bar.restart();

@@ -972,4 +972,12 @@ std::vector<std::pair<std::string, std::string>> apply_path_knobs(SceneTables& t
   return knobs;
 }
 
+std::uint64_t table_bytes(const SceneTables& t) {
+  auto b = [](const auto& v) { return std::uint64_t(v.size()) * sizeof(v[0]); };
+  return sizeof(t.globals) + b(t.nodes) + b(t.prim_refs) + b(t.triangles) + b(t.vertices) +
+         b(t.meshes) + b(t.spheres) + b(t.materials) + b(t.lights) + b(t.light_cdf) +
+         b(t.filter_cdf) + b(t.measured) + b(t.textures) + b(t.mip_levels) + b(t.texels) +
+         b(t.tex_data) + b(t.sampler_data);
+}
+
 }  // namespace basalt

@@ -41,6 +41,10 @@ struct BuildTimes {
   double seconds_bvh = 0.0;
 };
 
+/// \brief Bytes of every table of \p t (the vectors' contents, Globals included): what the CPU
+///        reference renders from, and what a device's tables are built from.
+std::uint64_t table_bytes(const SceneTables& t);
+
 /// \brief Flattens a parsed scene into GPU tables and builds the BVH (binned SAH).
 /// The seed in globals.image.w is the Sampler seed; a caller that overrides it (--seed) writes
 /// globals.image.w afterwards. With no lights, light_cdf is {0} and counts.x is 0.
