@@ -7,8 +7,10 @@
 // at several edge-length scales (displacement/edge-scale-<scale x 1000>); traversal rates of
 // lavapipe, the CPU reference and Embree on the same rays (rays/..., tests/bench/rays.cpp);
 // and, as a user sees them, pipeline creation and the time to the first pass of samples of
-// the `basalt` command cold and warm (pipeline/<scene>/{cold,warm}). Rows that measure an
-// issue 12 target carry it (target_s, or vs_cpu >= 1 on gpu/<scene>) beside the figure.
+// the `basalt` command cold and warm (pipeline/<scene>/{cold,warm}); the time to pbrt-v4's
+// error against pbrt-v4's time, and peak memory against the tables (equal-error/..., memory/...:
+// tests/bench/anchors.cpp). Rows that measure an issue 12 target carry it (target_s,
+// target_vs_pbrt, target, or vs_cpu >= 1 on gpu/<scene>) beside the figure.
 // Run: `cmake --build build --target bench` (5 repetitions, medians reported).
 #include <benchmark/benchmark.h>
 
@@ -24,6 +26,7 @@
 
 #include <unistd.h>
 
+#include "bench/anchors.h"
 #include "bench/rays.h"
 #include "cpu/render.h"
 #include "scene/scene.h"
@@ -385,6 +388,7 @@ void register_all() {
   for (const auto& e : std::filesystem::directory_iterator("scenes"))
     if (e.path().extension() == ".pbrt") files.push_back(e.path().string());
   std::sort(files.begin(), files.end());
+  basalt::bench::register_anchors(files);
   for (const auto& f : files) {
     std::string name = std::filesystem::path(f).stem().string();
     benchmark::RegisterBenchmark(("gpu/" + name).c_str(), BM_Gpu, f)
