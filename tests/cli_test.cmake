@@ -364,3 +364,18 @@ execute_process(COMMAND ${BASALT} study ${WORK}/good.pbrt --reference ${WORK}/sm
 if(NOT rc EQUAL 1 OR NOT err MATCHES "reference .*small\\.exr is 16x24, the scene renders 32x24")
   fail("basalt study --reference of the wrong size: exit ${rc} (expected 1): ${err}")
 endif()
+# A given reference of the right size is used and named in the report (it once left the
+# study's reference record empty and the report script failed).
+execute_process(COMMAND ${BASALT} ${WORK}/good.pbrt --device cpu --spp 4 --quiet
+                        -o ${WORK}/good-ref.exr RESULT_VARIABLE rc ERROR_VARIABLE err)
+execute_process(COMMAND ${BASALT} study ${WORK}/good.pbrt --reference ${WORK}/good-ref.exr
+                        --knobs spp --spp-max 2 --seeds 1 --devices cpu --quiet
+                        --out ${WORK}/study-given RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT EXISTS ${WORK}/study-given/report.md)
+  fail("basalt study --reference (right size): exit ${rc}: ${err}")
+else()
+  file(READ ${WORK}/study-given/report.md given_report)
+  if(NOT given_report MATCHES "good-ref\\.exr` \\(given\\)")
+    fail("basalt study --reference: report.md does not name the given reference")
+  endif()
+endif()

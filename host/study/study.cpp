@@ -919,6 +919,7 @@ int Study::run() {
                 << width_ << "x" << height_ << "\n";
       return kExitInput;
     }
+    ref_info_ = {{"path", fs::absolute(opt_.reference).string()}, {"given", true}};
   }
   if (!opt_.compare.empty()) {
     const Image other = read_exr(opt_.compare);
