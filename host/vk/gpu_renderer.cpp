@@ -97,7 +97,12 @@ constexpr TexelView kTexelViews[TEXEL_VIEW_COUNT] = {
     {BINDING_TEXELS2, vk::Format::eR32Uint, 4},
     {BINDING_TEXELS3, vk::Format::eR32Uint, 4},
     {BINDING_TEX_DATA, vk::Format::eR32Uint, 4},
-    {BINDING_SAMPLER_DATA, vk::Format::eR32Uint, 4}};
+    {BINDING_SAMPLER_DATA, vk::Format::eR32Uint, 4},
+    {BINDING_MATERIALS, vk::Format::eR32G32B32A32Uint, 16},
+    {BINDING_LIGHTS, vk::Format::eR32G32B32A32Uint, 16},
+    {BINDING_SPHERES, vk::Format::eR32G32B32A32Uint, 16},
+    {BINDING_MIP_LEVELS, vk::Format::eR32G32B32A32Uint, 16},
+    {BINDING_TEXTURES, vk::Format::eR32G32B32A32Uint, 16}};
 static_assert(BINDING_BVH_TEXELS == BINDING_COUNT && BINDING_LEAF_TEXELS == BINDING_COUNT + 1 &&
                   BINDING_TRIANGLE_TEXELS == BINDING_COUNT + 2 &&
                   BINDING_VERTEX_TEXELS == BINDING_COUNT + 3 &&
@@ -108,6 +113,11 @@ static_assert(BINDING_BVH_TEXELS == BINDING_COUNT && BINDING_LEAF_TEXELS == BIND
                   BINDING_TEXELS3_TEXELS == BINDING_COUNT + 8 &&
                   BINDING_TEX_DATA_TEXELS == BINDING_COUNT + 9 &&
                   BINDING_SAMPLER_TEXELS == BINDING_COUNT + 10 &&
+                  BINDING_MATERIAL_TEXELS == BINDING_COUNT + 11 &&
+                  BINDING_LIGHT_TEXELS == BINDING_COUNT + 12 &&
+                  BINDING_SPHERE_TEXELS == BINDING_COUNT + 13 &&
+                  BINDING_MIP_LEVEL_TEXELS == BINDING_COUNT + 14 &&
+                  BINDING_TEXTURE_TEXELS == BINDING_COUNT + 15 &&
                   BINDING_BVH_TEXELS + TEXEL_VIEW_COUNT <= BINDING_PROBE_IN,
               "texel view bindings follow the storage tables in kTexelViews' order");
 

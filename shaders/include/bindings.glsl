@@ -43,6 +43,11 @@ layout(set = 0, binding = BINDING_TEXELS2_TEXELS) uniform usamplerBuffer texels2
 layout(set = 0, binding = BINDING_TEXELS3_TEXELS) uniform usamplerBuffer texels3_texels;
 layout(set = 0, binding = BINDING_TEX_DATA_TEXELS) uniform usamplerBuffer tex_data_texels;
 layout(set = 0, binding = BINDING_SAMPLER_TEXELS) uniform usamplerBuffer sampler_texels;
+layout(set = 0, binding = BINDING_MATERIAL_TEXELS) uniform usamplerBuffer material_texels;
+layout(set = 0, binding = BINDING_LIGHT_TEXELS) uniform usamplerBuffer light_texels;
+layout(set = 0, binding = BINDING_SPHERE_TEXELS) uniform usamplerBuffer sphere_texels;
+layout(set = 0, binding = BINDING_MIP_LEVEL_TEXELS) uniform usamplerBuffer mip_level_texels;
+layout(set = 0, binding = BINDING_TEXTURE_TEXELS) uniform usamplerBuffer texture_texels;
 BASALT_TABLE(PRIM_REFS, PrimRefBuffer, uint, prim_refs);
 BASALT_TABLE(LEAF_PRIMS, LeafPrimBuffer, vec4, leaf_prims);
 BASALT_TABLE(TRIANGLES, TriangleBuffer, Triangle, triangles);
@@ -106,6 +111,64 @@ Mesh mesh_at(uint i) {
   if (TEXEL_TABLES == 0u) return meshes[i];
   uvec4 w = texelFetch(mesh_texels, int(i));
   return Mesh(w.x, w.y, w.z, w.w);
+}
+
+// The shading tables' entries (TEXEL_TABLES as above); a struct read whole is built from its
+// texels, and the fetches of the fields a caller does not use are removed as dead code.
+// uvec4 k of table view v as floats.
+#define TEXEL_F(v, k) uintBitsToFloat(texelFetch(v, int(k)))
+// Material m's type, flags, aux0 and aux1.
+uvec4 material_head(uint m) {
+  if (TEXEL_TABLES == 0u)
+    return uvec4(materials[m].type, materials[m].flags, materials[m].aux0, materials[m].aux1);
+  return texelFetch(material_texels, int(21u * m));
+}
+// Constant value of slot s of material m.
+vec4 material_value(uint m, uint s) {
+  return TEXEL_TABLES != 0u ? TEXEL_F(material_texels, 21u * m + 1u + s) : materials[m].value[s];
+}
+// Texture of slot s of material m (INVALID_INDEX: the constant).
+uint material_texture(uint m, uint s) {
+  if (TEXEL_TABLES == 0u) return materials[m].texture[s / 4u][s % 4u];
+  return texelFetch(material_texels, int(21u * m + 17u + s / 4u))[s % 4u];
+}
+// Light i.
+Light light_at(uint i) {
+  if (TEXEL_TABLES == 0u) return lights[i];
+  uint k = 10u * i;
+  uvec4 h = texelFetch(light_texels, int(k));
+  return Light(h.x, h.y, h.z, uintBitsToFloat(h.w), TEXEL_F(light_texels, k + 1u),
+               TEXEL_F(light_texels, k + 2u), TEXEL_F(light_texels, k + 3u),
+               TEXEL_F(light_texels, k + 4u), texelFetch(light_texels, int(k + 5u)),
+               mat4(TEXEL_F(light_texels, k + 6u), TEXEL_F(light_texels, k + 7u),
+                    TEXEL_F(light_texels, k + 8u), TEXEL_F(light_texels, k + 9u)));
+}
+// Sphere i.
+Sphere sphere_at(uint i) {
+  if (TEXEL_TABLES == 0u) return spheres[i];
+  uint k = 5u * i;
+  uvec4 t = texelFetch(sphere_texels, int(k + 4u));
+  return Sphere(TEXEL_F(sphere_texels, k), TEXEL_F(sphere_texels, k + 1u),
+                TEXEL_F(sphere_texels, k + 2u), TEXEL_F(sphere_texels, k + 3u), t.x, t.y, t.z,
+                t.w);
+}
+// MipLevel i.
+MipLevel mip_level_at(uint i) {
+  if (TEXEL_TABLES == 0u) return mip_levels[i];
+  uvec4 w = texelFetch(mip_level_texels, int(i));
+  return MipLevel(w.x, w.y, w.z, w.w);
+}
+// Texture instruction i.
+Texture texture_at(uint i) {
+  if (TEXEL_TABLES == 0u) return textures[i];
+  uint k = 12u * i;
+  uvec4 h = texelFetch(texture_texels, int(k));
+  return Texture(h.x, h.y, h.z, h.w, texelFetch(texture_texels, int(k + 1u)),
+                 vec4[4](TEXEL_F(texture_texels, k + 2u), TEXEL_F(texture_texels, k + 3u),
+                         TEXEL_F(texture_texels, k + 4u), TEXEL_F(texture_texels, k + 5u)),
+                 vec4[2](TEXEL_F(texture_texels, k + 6u), TEXEL_F(texture_texels, k + 7u)),
+                 mat4(TEXEL_F(texture_texels, k + 8u), TEXEL_F(texture_texels, k + 9u),
+                      TEXEL_F(texture_texels, k + 10u), TEXEL_F(texture_texels, k + 11u)));
 }
 
 // Float g of the texel table, which spans up to TEXEL_CHUNK_COUNT bindings of 2^25 floats

@@ -78,14 +78,14 @@ vec4 bump_disp_uv;
 void slots_resolve(uint m, SurfacePoint sp) {
   if ((FEATURES & FEATURE_TEXTURES) == 0u) return;
   uint n = MATERIAL_SLOTS;
-  if (BUMP_ENABLED && bump_wanted(materials[m].flags)) n += bump_central() ? 4u : 2u;
+  if (BUMP_ENABLED && bump_wanted(material_head(m).y)) n += bump_central() ? 4u : 2u;
   [[dont_unroll]] for (uint s = 0u; s < n; ++s) {
     bool shifted = BUMP_ENABLED && s >= MATERIAL_SLOTS;
     uint slot = shifted ? SLOT_DISPLACEMENT : s;
     TexCtx c = sp.tex;
     if (shifted) c = bump_shifted_ctx(sp, s - MATERIAL_SLOTS);
-    uint tex = materials[m].texture[slot / 4u][slot % 4u];
-    vec4 v = tex != INVALID_INDEX ? vec4(tex_eval_rgb(tex, c), 0.0) : materials[m].value[slot];
+    uint tex = material_texture(m, slot);
+    vec4 v = tex != INVALID_INDEX ? vec4(tex_eval_rgb(tex, c), 0.0) : material_value(m, slot);
     if (!shifted) slot_cache[s] = v;
     else bump_disp_uv[s - MATERIAL_SLOTS] = v.x;
   }
@@ -101,12 +101,12 @@ BumpFrame bsdf_frame;
 // Slot value of material m (the one slots_resolve was last called for) at sp.
 vec4 slot_value(uint m, uint slot, SurfacePoint sp) {
   if ((FEATURES & FEATURE_TEXTURES) != 0u) return slot_cache[slot];
-  return materials[m].value[slot];
+  return material_value(m, slot);
 }
 
 // Alpha of a roughness slot (docs/materials-spec.md 1.4).
 float slot_alpha(uint m, uint slot, SurfacePoint sp) {
-  return roughness_to_alpha(slot_value(m, slot, sp).x, materials[m].flags);
+  return roughness_to_alpha(slot_value(m, slot, sp).x, material_head(m).y);
 }
 
 // pbrt-v4 MixMaterial::ChooseMaterial's hash as docs/materials-spec.md section 4 fixes it: a
@@ -166,7 +166,7 @@ void add_microfacet_t(inout Bsdf b, vec3 weight, float ax, float ay, uint mflags
 // ConductorMaterial) with r = clamp(reflectance, 0, 0.9999).
 void conductor_eta_k(uint m, uint slot_eta, uint slot_k, uint slot_r, SurfacePoint sp,
                      out vec3 eta, out vec3 k) {
-  if ((materials[m].flags & MATFLAG_USE_REFLECTANCE) != 0u) {
+  if ((material_head(m).y & MATFLAG_USE_REFLECTANCE) != 0u) {
     vec3 r = clamp(slot_value(m, slot_r, sp).xyz, 0.0, 0.9999);
     eta = vec3(1.0);
     precise vec3 kk = 2.0 * sqrt(r) / sqrt(vec3(1.0) - r);
@@ -181,8 +181,8 @@ void conductor_eta_k(uint m, uint slot_eta, uint slot_k, uint slot_r, SurfacePoi
 // (docs/materials-spec.md section 3).
 void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
   if (!material_valid(m)) return;
-  uint type = materials[m].type;
-  uint mflags = materials[m].flags;
+  uint type = material_head(m).x;
+  uint mflags = material_head(m).y;
   uint beck = (mflags & MATFLAG_BECKMANN) != 0u ? LOBEBIT_BECKMANN : 0u;
   switch (type) {
     case MATERIAL_DIFFUSE:
@@ -273,8 +273,8 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
           (type == MATERIAL_COATED_CONDUCTOR && has_feature(FEATURE_MAT_COATED_CONDUCTOR))) {
         bool cd = type == MATERIAL_COATED_DIFFUSE;
         Lobe L = lobe_new(cd ? LOBE_LAYERED_DIFFUSE : LOBE_LAYERED_CONDUCTOR, scale, 0u, beck);
-        L.aux = (materials[m].aux0 & 0xffffu) | (materials[m].aux1 << 16u);
-        if ((materials[m].flags & MATFLAG_LAYERED_PBRT_MIS) != 0u) L.bits |= LOBEBIT_PBRT_MIS;
+        L.aux = (material_head(m).z & 0xffffu) | (material_head(m).w << 16u);
+        if ((material_head(m).y & MATFLAG_LAYERED_PBRT_MIS) != 0u) L.bits |= LOBEBIT_PBRT_MIS;
         if (cd) {
           L.p0 = vec4(mf_alphas(slot_alpha(m, SLOT_CD_UROUGH, sp), slot_alpha(m, SLOT_CD_VROUGH, sp)),
                       slot_value(m, SLOT_CD_ETA, sp).x, slot_value(m, SLOT_CD_THICKNESS, sp).x);
@@ -362,8 +362,8 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
     case MATERIAL_MEASURED:
       if (has_feature(FEATURE_MAT_MEASURED)) {
         Lobe L = lobe_new(LOBE_MEASURED, scale, BSDF_REFLECTION | BSDF_GLOSSY, 0u);
-        L.aux = materials[m].aux0;
-        L.p0.xyz = materials[m].value[SLOT_MEASURED_DIMS].xyz;
+        L.aux = material_head(m).z;
+        L.p0.xyz = material_value(m, SLOT_MEASURED_DIMS).xyz;
         lobe_add(b, L);
       }
       break;
@@ -389,7 +389,7 @@ Bsdf bsdf_at(uint material, SurfacePoint sp, vec3 wo_world, bool lobes) {
 #if !BSDF_ALL_MATERIALS
   if (!material_valid(m)) return b;
   b.material = m;
-  b.type = materials[m].type;
+  b.type = material_head(m).x;
   if (lobes) {
     slots_resolve(m, sp);
     add_material_lobes(b, m, vec3(1.0), sp);
@@ -401,7 +401,7 @@ Bsdf bsdf_at(uint material, SurfacePoint sp, vec3 wo_world, bool lobes) {
   vec3 scale = vec3(1.0), pending_scale = vec3(0.0);
   [[dont_unroll]] for (uint step = 0u; step < 20u; ++step) {
     if (!material_valid(m)) return Bsdf(0u, 0u, INVALID_INDEX, MATERIAL_NONE);
-    uint type = materials[m].type;
+    uint type = material_head(m).x;
     bool stochastic = has_feature(FEATURE_MAT_MIX) && type == MATERIAL_MIX;
     if (resolved && !lobes) break;
     if (!resolved && !stochastic) {
@@ -415,18 +415,18 @@ Bsdf bsdf_at(uint material, SurfacePoint sp, vec3 wo_world, bool lobes) {
       if (level == 16u) return Bsdf(0u, 0u, INVALID_INDEX, MATERIAL_NONE);
       ++level;
       float a = slot_value(m, SLOT_MIX_AMOUNT, sp).x;
-      if (a <= 0.0) m = materials[m].aux0;
-      else if (a >= 1.0) m = materials[m].aux1;
-      else m = a < mix_hash(sp.p, wo_world, m) ? materials[m].aux0 : materials[m].aux1;
+      if (a <= 0.0) m = material_head(m).z;
+      else if (a >= 1.0) m = material_head(m).w;
+      else m = a < mix_hash(sp.p, wo_world, m) ? material_head(m).z : material_head(m).w;
       continue;
     }
     if (has_feature(FEATURE_MAT_MIX_WEIGHTED) && type == MATERIAL_MIX_WEIGHTED &&
         m == b.material) {
       vec3 amount = clamp(slot_value(m, SLOT_MIX_AMOUNT, sp).xyz, 0.0, 1.0);
-      pending = materials[m].aux1;
+      pending = material_head(m).w;
       pending_scale = amount;
       scale = vec3(1.0) - amount;
-      m = materials[m].aux0;
+      m = material_head(m).z;
       continue;
     }
     add_material_lobes(b, m, scale, sp);

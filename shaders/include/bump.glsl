@@ -133,7 +133,7 @@ bool normal_map(SurfacePoint sp, uint level, out vec3 dpdu, out vec3 dpdv) {
   dpdu = sp.sdpdu;
   dpdv = sp.sdpdv;
   // 5.1: bilinear lookup at (u, 1 - v), repeat wrap (pbrt-v4 Image::BilerpChannel).
-  MipLevel ml = mip_levels[level];
+  MipLevel ml = mip_level_at(level);
   precise float t = 1.0 - sp.tex.uv.y;
   precise float x = sp.tex.uv.x * float(ml.width) - 0.5;
   precise float y = t * float(ml.height) - 0.5;
@@ -232,11 +232,11 @@ bool bump_normal(vec3 ng, vec3 dpdu, vec3 dpdv, out vec3 n) {
 bool bump_shading(uint m, SurfacePoint sp, float disp, vec4 disp_uv, out BumpFrame f) {
   f = BumpFrame(sp.ns, sp.t1, sp.t2, sp.sdpdu, sp.sdpdv);
   if (!BUMP_ENABLED && !NORMALMAP_ENABLED && !VTURB_ENABLED) return false;
-  uint mflags = materials[m].flags;
+  uint mflags = material_head(m).y;
   vec3 dpdu, dpdv, n;
   bool paired = false;
   if (NORMALMAP_ENABLED && (mflags & MATFLAG_NORMALMAP) != 0u) {
-    paired = normal_map(sp, uint(materials[m].value[SLOT_NORMALMAP].x), dpdu, dpdv);
+    paired = normal_map(sp, uint(material_value(m, SLOT_NORMALMAP).x), dpdu, dpdv);
   } else if (bump_wanted(mflags)) {
     bump_map(sp, disp, disp_uv, dpdu, dpdv);
     paired = true;
@@ -251,7 +251,7 @@ bool bump_shading(uint m, SurfacePoint sp, float disp, vec4 disp_uv, out BumpFra
   // Bump-spec 9, from the normal and pair above (sp's where nothing changed them); a
   // degenerate result keeps them.
   if (VTURB_ENABLED && (mflags & MATFLAG_VTURB) != 0u) {
-    vec4 vt = materials[m].value[SLOT_NORMALMAP];
+    vec4 vt = material_value(m, SLOT_NORMALMAP);
     if (vturb_pair(f.ns, f.dpdu, f.dpdv, sp.tex.p, vt.y, vt.z, int(vt.w), dpdu, dpdv) &&
         bump_normal(sp.ng, dpdu, dpdv, n)) {
       f.ns = n;

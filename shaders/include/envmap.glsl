@@ -144,7 +144,7 @@ int env_mod(int a, int b) { return a >= 0 ? a % b : b - 1 - ((-1 - a) % b); }
 // One loop over the taps (1 nearest, 4 bilerp) with a single fetch; a 1-channel image gives
 // (g, g, g).
 vec3 env_image_le(uint light, vec2 p, int face, uint mapping) {
-  MipLevel lv = mip_levels[lights[light].data.x];
+  MipLevel lv = mip_level_at(light_at(light).data.x);
   int w = int(lv.width), h = int(lv.height);
   int x, y;
   int taps = 1;
@@ -211,7 +211,7 @@ vec3 env_image_le(uint light, vec2 p, int face, uint mapping) {
     vec3 c = vec3(texel_at(i), texel_at(i + step), texel_at(i + 2u * step));
     sum += wgt * c;
   }
-  return lights[light].L.rgb * max(sum, vec3(0.0));
+  return light_at(light).L.rgb * max(sum, vec3(0.0));
 }
 
 // pbrt-v4 PortalImageInfiniteLight::ImageFromRender (lights.h; spec 6.9 world_to_image):
@@ -219,7 +219,7 @@ vec3 env_image_le(uint light, vec2 p, int face, uint mapping) {
 // clamped to [0, 1], and duv_dw = pi^2 (1 - x^2) (1 - y^2) / z, with (x, y, z) = w in the
 // portal frame (not normalised). False (none) when z <= 0 (or NaN).
 bool portal_world_to_image(uint light, vec3 w, out vec2 uv, out float duv_dw) {
-  mat4 m = lights[light].light_from_world;
+  mat4 m = light_at(light).light_from_world;
   precise vec3 wp = m[0].xyz * w.x + m[1].xyz * w.y + m[2].xyz * w.z;
   uv = vec2(0.0);
   duv_dw = 0.0;
@@ -288,7 +288,7 @@ void portal_eval_uv(uint light, vec3 w, vec3 ray_o, vec3 p_ref, out vec2 uv_le,
   vec3 wn = safe_normalize(w);
   bool same_w = all(equal(floatBitsToUint(wn), floatBitsToUint(w)));
   bool same_p = all(equal(floatBitsToUint(p_ref), floatBitsToUint(ray_o)));
-  vec3 c0 = lights[light].pos.xyz, c2 = lights[light].dir.xyz;
+  vec3 c0 = light_at(light).pos.xyz, c2 = light_at(light).dir.xyz;
   bool ok_le = false, ok_pdf = false, ok_o = true, ok_p = true;
   float j_le = 0.0, j_pdf = 0.0;
   vec2 a_o = vec2(0.0), b_o = vec2(0.0), a_p = vec2(0.0), b_p = vec2(0.0);
@@ -343,7 +343,7 @@ void portal_eval_uv(uint light, vec3 w, vec3 ray_o, vec3 p_ref, out vec2 uv_le,
   duv_dw = ok_pdf ? j_pdf : 0.0;
   integral = 0.0;
   if (ok_pdf && j_pdf != 0.0 && ok_p) {
-    uint o = lights[light].data.y;
+    uint o = light_at(light).data.y;
     integral = portal_integral(o, uint(tex_data_at(o)), uint(tex_data_at(o + 1u)), min(a_p, b_p),
                                max(a_p, b_p));
   }
@@ -363,14 +363,14 @@ bool portal_sample_uv(uint light, vec2 u, vec3 p, out vec2 uv, out float map_pdf
   map_pdf = 0.0;
   vec2 ca = vec2(0.0), cb = vec2(0.0);
   [[dont_unroll]] for (int k = 0; k < 2; ++k) {  // ImageBounds: the images of p0 and p2
-    precise vec3 e = (k == 0 ? lights[light].pos.xyz : lights[light].dir.xyz) - p;
+    precise vec3 e = (k == 0 ? light_at(light).pos.xyz : light_at(light).dir.xyz) - p;
     vec2 t;
     float j;
     if (!portal_world_to_image(light, safe_normalize(e), t, j)) return false;
     if (k == 0) ca = t; else cb = t;
   }
   vec2 bmin = min(ca, cb), bmax = max(ca, cb);
-  uint o = lights[light].data.y;
+  uint o = light_at(light).data.y;
   uint nx = uint(tex_data_at(o)), ny = uint(tex_data_at(o + 1u));
   // k = 0 samples x in the window (cmin, cmax) = box, k = 1 samples y in the column c. States:
   // 0 = the normaliser (I, then integral(c)), 1 = P(mid), 2 = P(lo), 3 = P(hi).
@@ -455,9 +455,9 @@ bool portal_sample_uv(uint light, vec2 u, vec3 p, out vec2 uv, out float map_pdf
 //               unless the direction passes through the window seen from ray_o.
 // The render shader calls this once (escaped rays); env_le and env_pdf are its two halves.
 vec3 env_eval(uint light, vec3 w_world, bool compensated, vec3 ray_o, vec3 p_ref, out float pdf) {
-  uint mapping = lights[light].data.w;
+  uint mapping = light_at(light).data.w;
   // To the light's frame (6.2): normalize(m0 w.x + m1 w.y + m2 w.z), summed left to right.
-  mat4 m = lights[light].light_from_world;
+  mat4 m = light_at(light).light_from_world;
   precise vec3 wl0 = m[0].xyz * w_world.x + m[1].xyz * w_world.y + m[2].xyz * w_world.z;
   vec3 wl = safe_normalize(wl0);
   vec2 uv;          // the distribution's (u, v)
@@ -521,7 +521,7 @@ vec3 env_eval(uint light, vec3 w_world, bool compensated, vec3 ray_o, vec3 p_ref
     uv = equal_area_sphere_to_square(wl);
     p = uv;
   }
-  uint o = compensated ? lights[light].data.z : lights[light].data.y;
+  uint o = compensated ? light_at(light).data.z : light_at(light).data.y;
   uint nu = uint(tex_data_at(o)), nv = uint(tex_data_at(o + 1u));
   float integral = tex_data_at(o + 2u);
   int iu, iv;
@@ -589,9 +589,9 @@ bool env_sample(uint light, vec2 u, bool compensated, vec3 p_ref, out vec3 wi, o
   wi = vec3(0.0);
   pdf = 0.0;
   le = vec3(0.0);
-  uint mapping = lights[light].data.w;
+  uint mapping = light_at(light).data.w;
   bool portal = (FEATURES2 & FEATURE2_ENV_PORTAL) != 0u && mapping == ENVMAP_PORTAL;
-  uint o = compensated ? lights[light].data.z : lights[light].data.y;
+  uint o = compensated ? light_at(light).data.z : light_at(light).data.y;
   uint nu = uint(tex_data_at(o)), nv = uint(tex_data_at(o + 1u));
   // Step 0: the marginal (func at o + 4, cdf after it); step 1: the conditional of row v.
   // (A portal samples its windowed distribution instead, portal_sample_uv.)
@@ -711,7 +711,7 @@ bool env_sample(uint light, vec2 u, bool compensated, vec3 p_ref, out vec3 wi, o
       pd = map_pdf / (4.0 * PI);
     }
   }
-  mat4 m = lights[light].light_from_world;
+  mat4 m = light_at(light).light_from_world;
   wi = vec3(dot_exact(m[0].xyz, wl), dot_exact(m[1].xyz, wl), dot_exact(m[2].xyz, wl));
   pdf = pd;
   le = env_image_le(light, p, face, mapping);

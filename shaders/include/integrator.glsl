@@ -90,7 +90,7 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
       if (any_positive(Le)) {
         float w = 1.0;
         if (!(depth == 0u || specular)) {
-          float pl = lights[sp.light].pmf *
+          float pl = light_at(sp.light).pmf *
                      light_pdf(sp.light, p_prev, ng_prev, m_prev, sp.p, sp.ng, ray.d);
           w = mis_bsdf(pdf_prev, pl);
         }
@@ -147,7 +147,7 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
     vec3 wi_l = vec3(0.0), f_nee = vec3(0.0);
     if (nee) {
       uint li = light_select(bounce_sample(us, px, py, s, dim, DIM_LIGHT_SELECT), num_lights);
-      pmf = lights[li].pmf;
+      pmf = light_at(li).pmf;
       vec2 ul = vec2(bounce_sample(us, px, py, s, dim, DIM_LIGHT_U0),
                      bounce_sample(us, px, py, s, dim, DIM_LIGHT_U1));
       ls = light_sample(li, sp.p, sp.ng, sp.m, ul);

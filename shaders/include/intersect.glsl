@@ -106,7 +106,7 @@ float intersect_triangle_at(Ray ray, RayTri rt, vec3 p0, vec3 p1, vec3 p2, out v
 // world space with f = o - c (docs/path-spec.md section 3). Returns the nearer root in
 // (0, tmax), or -1 for a miss.
 float intersect_sphere(Ray ray, uint sph) {
-  vec4 cr = spheres[sph].center_radius;
+  vec4 cr = sphere_at(sph).center_radius;
   float r = cr.w;
   vec3 f = ray.o - cr.xyz;
   float a = dot(ray.d, ray.d);

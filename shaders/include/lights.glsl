@@ -46,7 +46,7 @@ uint light_select(float u, uint n) {
 // Emitted radiance of area light li leaving its surface with normal n towards w (pbrt-v4
 // DiffuseAreaLight::L): L on the front side or when two-sided, else 0.
 vec3 area_le(uint li, vec3 n, vec3 w) {
-  if ((lights[li].flags & LIGHT_FLAG_TWOSIDED) != 0u || dot(n, w) > 0.0) return lights[li].L.rgb;
+  if ((light_at(li).flags & LIGHT_FLAG_TWOSIDED) != 0u || dot(n, w) > 0.0) return light_at(li).L.rgb;
   return vec3(0.0);
 }
 
@@ -94,22 +94,22 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
   ls.nl = vec3(0.0, 0.0, 1.0);
   ls.area = false;
   ls.m = 0.0;
-  uint type = lights[li].type;
-  vec3 L = lights[li].L.rgb;
+  uint type = light_at(li).type;
+  vec3 L = light_at(li).L.rgb;
   switch (type) {
     case LIGHT_POINT:
     case LIGHT_SPOT:
       if ((type == LIGHT_POINT && (FEATURES & FEATURE_LIGHT_POINT) != 0u) ||
           (type == LIGHT_SPOT && (FEATURES & FEATURE_LIGHT_SPOT) != 0u)) {
-        vec3 pos = lights[li].pos.xyz;
+        vec3 pos = light_at(li).pos.xyz;
         vec3 dp = pos - p;
         float d2 = dot(dp, dp);
         if (d2 > 0.0) {
           ls.wi = dp / sqrt(d2);
           ls.Li = L / d2;
           if (type == LIGHT_SPOT) {
-            vec4 prm = lights[li].params;  // cos(falloff start), cos(falloff end)
-            ls.Li *= smooth_step(dot(-ls.wi, lights[li].dir.xyz), prm.y, prm.x);
+            vec4 prm = light_at(li).params;  // cos(falloff start), cos(falloff end)
+            ls.Li *= smooth_step(dot(-ls.wi, light_at(li).dir.xyz), prm.y, prm.x);
           }
           ls.pdf = 1.0;
           ls.delta = true;
@@ -119,7 +119,7 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
       break;
     case LIGHT_DISTANT:
       if ((FEATURES & FEATURE_LIGHT_DISTANT) != 0u) {
-        ls.wi = lights[li].dir.xyz;
+        ls.wi = light_at(li).dir.xyz;
         ls.Li = L;
         ls.pdf = 1.0;
         ls.delta = true;
@@ -145,11 +145,11 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
     case LIGHT_AREA_TRIANGLE:
       if ((FEATURES & FEATURE_LIGHT_AREA) != 0u && (FEATURES & FEATURE_TRIANGLES) != 0u) {
         vec3 ns_unused;
-        triangle_geometry(lights[li].prim, uniform_triangle(u), ls.q, ls.nl, ns_unused, ls.m);
+        triangle_geometry(light_at(li).prim, uniform_triangle(u), ls.q, ls.nl, ns_unused, ls.m);
         vec3 dq = ls.q - p;
         if (dot(dq, dq) > 0.0) {
           ls.wi = safe_normalize(dq);
-          ls.pdf = area_to_solid_angle(p, ls.q, ls.nl, ls.wi, lights[li].params.x);
+          ls.pdf = area_to_solid_angle(p, ls.q, ls.nl, ls.wi, light_at(li).params.x);
           ls.Li = area_le(li, ls.nl, -ls.wi);
           ls.area = true;
         }
@@ -157,8 +157,8 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
       break;
     case LIGHT_AREA_SPHERE:
       if ((FEATURES & FEATURE_LIGHT_AREA) != 0u && (FEATURES & FEATURE_SPHERES) != 0u) {
-        uint sph = lights[li].prim;
-        vec4 cr = spheres[sph].center_radius;
+        uint sph = light_at(li).prim;
+        vec4 cr = sphere_at(sph).center_radius;
         vec3 c = cr.xyz;
         float r = cr.w;
         vec3 pc = p - c;
@@ -217,12 +217,12 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
 // from p_prev in unit direction wi hit (MIS weight of an emitting hit, docs/path-spec.md
 // section 7; pbrt-v4 PDF_Li). Not multiplied by the pmf.
 float light_pdf(uint li, vec3 p_prev, vec3 ng_prev, float m_prev, vec3 q, vec3 nl, vec3 wi) {
-  uint type = lights[li].type;
+  uint type = light_at(li).type;
   if (type == LIGHT_AREA_TRIANGLE && (FEATURES & FEATURE_TRIANGLES) != 0u) {
-    return area_to_solid_angle(p_prev, q, nl, wi, lights[li].params.x);
+    return area_to_solid_angle(p_prev, q, nl, wi, light_at(li).params.x);
   }
   if (type == LIGHT_AREA_SPHERE && (FEATURES & FEATURE_SPHERES) != 0u) {
-    vec4 cr = spheres[lights[li].prim].center_radius;
+    vec4 cr = sphere_at(light_at(li).prim).center_radius;
     vec3 pc = p_prev - cr.xyz;
     float d2 = dot(pc, pc);
     float r2 = cr.w * cr.w;
@@ -242,17 +242,17 @@ float light_pdf(uint li, vec3 p_prev, vec3 ng_prev, float m_prev, vec3 q, vec3 n
 // o is the ray's origin (Le) and p_prev the previous vertex (the pdf): only portals read them.
 vec3 infinite_light_le(uint li, vec3 o, vec3 p_prev, vec3 w, out float pl) {
   pl = 0.0;
-  uint type = lights[li].type;
+  uint type = light_at(li).type;
   if ((FEATURES & FEATURE_LIGHT_INFINITE_IMAGE) != 0u && type == LIGHT_INFINITE_IMAGE) {
     float pdf;
     vec3 le = env_eval(li, w, true, o, p_prev, pdf);
-    pl = lights[li].pmf * pdf;
+    pl = light_at(li).pmf * pdf;
     return le;
   }
   if ((FEATURES & FEATURE_LIGHT_INFINITE) != 0u && type == LIGHT_INFINITE_UNIFORM) {
     // Uniform infinite light: Le = L in every direction, light-sampling pdf 1 / (4 pi).
-    pl = lights[li].pmf / (4.0 * PI);
-    return lights[li].L.rgb;
+    pl = light_at(li).pmf / (4.0 * PI);
+    return light_at(li).L.rgb;
   }
   return vec3(0.0);
 }

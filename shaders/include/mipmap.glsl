@@ -36,7 +36,7 @@ int mipmap_mod(int a, int b) { return a >= 0 ? a % b : b - 1 - ((-1 - a) % b); }
 // (g,g,g); want_float reads channel 0 broadcast. pbrt-v4 MIPMap::Texel + Image::GetChannel with
 // RemapPixelCoords (util/image.h).
 vec3 mipmap_texel(uint level, ivec2 xy, uint wrap, bool want_float) {
-  MipLevel ml = mip_levels[level];
+  MipLevel ml = mip_level_at(level);
   ivec2 res = ivec2(int(ml.width), int(ml.height));
   ivec2 p = xy;
   if (wrap == WRAP_OCTAHEDRAL) {
@@ -87,15 +87,15 @@ const int MIPPASS_POINT = 1;   // Texel(level, round(st * res - 0.5))
 const int MIPPASS_BILERP = 2;  // pbrt-v4 MIPMap::Bilerp / Image::BilerpChannel
 const int MIPPASS_EWA = 3;     // pbrt-v4 MIPMap::EWA
 
-// pbrt-v4 MIPMap::Filter of image texture ti (textures[ti].image = first MipLevel, ip.x =
+// pbrt-v4 MIPMap::Filter of image texture ti (texture_at(ti).image = first MipLevel, ip.x =
 // level count, param[0].y = maxanisotropy, filter and wrap in flags) at st with dst0 = (dsdx,
 // dtdx), dst1 = (dsdy, dtdy).
 vec3 mipmap_filter(uint ti, vec2 st, vec2 dst0, vec2 dst1, bool want_float) {
-  uint flags = textures[ti].flags;
+  uint flags = texture_at(ti).flags;
   uint filt = (flags & TEXFLAG_FILTER_MASK) >> TEXFLAG_FILTER_SHIFT;
   uint wrap = (flags & TEXFLAG_WRAP_MASK) >> TEXFLAG_WRAP_SHIFT;
-  uint base = textures[ti].image;
-  int nlev = int(textures[ti].ip.x);
+  uint base = texture_at(ti).image;
+  int nlev = int(texture_at(ti).ip.x);
   float top = float(nlev - 1);
 
   // ---- plan: the pass kind, the first pass's level, one or two passes, the lerp weight ----
@@ -117,7 +117,7 @@ vec3 mipmap_filter(uint ti, vec2 st, vec2 dst0, vec2 dst1, bool want_float) {
     }
     float longer = sqrt(l0);
     precise float shorter = sqrt(l1);
-    float maxaniso = textures[ti].param[0].y;
+    float maxaniso = texture_at(ti).param[0].y;
     precise float sa = shorter * maxaniso;
     if (sa < longer && shorter > 0.0) {  // clamp the ellipse's eccentricity
       precise float scale = longer / sa;
@@ -163,7 +163,7 @@ vec3 mipmap_filter(uint ti, vec2 st, vec2 dst0, vec2 dst1, bool want_float) {
     if (k == MIPPASS_EWA && lev >= nlev) k = MIPPASS_ORIGIN;  // pbrt-v4 EWA's level >= Levels()
     if (k == MIPPASS_ORIGIN) lev = nlev - 1;
     uint ml = base + uint(lev);
-    vec2 res = vec2(float(mip_levels[ml].width), float(mip_levels[ml].height));
+    vec2 res = vec2(float(mip_level_at(ml).width), float(mip_level_at(ml).height));
     precise vec2 x = st * res - 0.5;  // st in texel units of this level
     ivec2 lo = ivec2(0), hi = ivec2(0);
     vec2 f = vec2(0.0);                   // bilerp: fractional offsets
@@ -236,7 +236,7 @@ vec3 mipmap_filter(uint ti, vec2 st, vec2 dst0, vec2 dst1, bool want_float) {
     }
     precise vec3 r = k == MIPPASS_EWA ? (sumw > 0.0 ? sum / sumw : vec3(0.0)) : sum;
     // pbrt-v4 MIPMap::Bilerp<Float> of a 3-channel level: the average of the bilerped r, g, b.
-    if (k == MIPPASS_BILERP && want_float && mip_levels[ml].channels == 3u) {
+    if (k == MIPPASS_BILERP && want_float && mip_level_at(ml).channels == 3u) {
       precise float avg = (r.x + r.y + r.z) / 3.0;
       r = vec3(avg);
     }

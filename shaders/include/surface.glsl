@@ -96,7 +96,7 @@ void triangle_params(uint tri, vec3 b, out vec2 uv, out vec3 dpdu, out vec3 dpdv
 // uv and dpdv of sphere sph at p (docs/textures-spec.md 1, pbrt-v4 Sphere, full sphere):
 // u = phi / 2 pi, v = 1 - theta / pi, dpdv = -pi (z cos phi, z sin phi, -r sin theta).
 void sphere_uv(uint sph, vec3 p, out vec2 uv, out vec3 dpdv) {
-  Sphere S = spheres[sph];
+  Sphere S = sphere_at(sph);
   float r = S.center_radius.w;
   precise vec3 pc = p - S.center_radius.xyz;
   float qx = dot_exact(pc, S.axis_x.xyz);
@@ -122,7 +122,7 @@ void sphere_uv(uint sph, vec3 p, out vec2 uv, out vec3 dpdv) {
 // q = p - c in object coordinates, (-2 pi q.y, 2 pi q.x, 0) (pbrt-v4 Sphere, phiMax = 2 pi),
 // back in world space; zero at the poles.
 vec3 sphere_dpdu(uint sph, vec3 p) {
-  Sphere S = spheres[sph];
+  Sphere S = sphere_at(sph);
   precise vec3 pc = p - S.center_radius.xyz;
   float qx = dot_exact(pc, S.axis_x.xyz);
   float qy = dot_exact(pc, S.axis_y.xyz);
@@ -199,7 +199,7 @@ void triangle_geometry(uint tri, vec3 b, out vec3 p, out vec3 ng, out vec3 ns, o
 // Outward normal (negated by SHAPE_FLAG_FLIP_NORMAL) of sphere sph for a unit vector n
 // from its centre.
 vec3 sphere_normal(uint sph, vec3 n) {
-  return (spheres[sph].flags & SHAPE_FLAG_FLIP_NORMAL) != 0u ? -n : n;
+  return (sphere_at(sph).flags & SHAPE_FLAG_FLIP_NORMAL) != 0u ? -n : n;
 }
 
 // Surface point of a closest hit (docs/path-spec.md section 4). Triangles: interpolated
@@ -226,7 +226,7 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
   if ((hit.prim & PRIM_SPHERE_BIT) != 0u) {
     if ((FEATURES & FEATURE_SPHERES) != 0u) {
       uint sph = hit.prim & PRIM_INDEX_MASK;
-      vec4 cr = spheres[sph].center_radius;
+      vec4 cr = sphere_at(sph).center_radius;
       precise vec3 p = ray.o + hit.t * ray.d;
       precise vec3 pc = p - cr.xyz;
       float len = sqrt(dot_exact(pc, pc));
@@ -235,13 +235,13 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
       sp.ng = sphere_normal(sph, (p - cr.xyz) / cr.w);
       sp.ns = sp.ng;
       sp.m = sphere_bound(cr);
-      sp.material = spheres[sph].material;
-      sp.light = spheres[sph].light;
+      sp.material = sphere_at(sph).material;
+      sp.light = sphere_at(sph).light;
       dpdu = sphere_dpdu(sph, sp.p);
       if ((FEATURES & FEATURE_TEXTURES) != 0u) {
         sphere_uv(sph, sp.p, uv, dpdv);
         // textures-spec 3.2: dpdu / (s r), not flipped with the normal.
-        precise float sr = spheres[sph].axis_x.w * cr.w;
+        precise float sr = sphere_at(sph).axis_x.w * cr.w;
         precise vec3 ndu = dpdu / sr;
         precise vec3 ndv = dpdv / sr;
         sp.dndu = ndu;

@@ -49,9 +49,9 @@ struct TexCoord2D {
 // pbrt-v4 UVMapping / SphericalMapping / CylindricalMapping / PlanarMapping::Map.
 TexCoord2D tex_map_2d(uint ti, TexCtx c) {
   TexCoord2D r = TexCoord2D(vec2(0.0), 0.0, 0.0, 0.0, 0.0);
-  uint mapping = textures[ti].flags & TEXFLAG_MAPPING_MASK;
+  uint mapping = texture_at(ti).flags & TEXFLAG_MAPPING_MASK;
   if (mapping == MAPPING_UV) {
-    vec4 m = textures[ti].map[0];
+    vec4 m = texture_at(ti).map[0];
     precise float dsdx = m.x * c.dudx, dsdy = m.x * c.dudy;
     precise float dtdx = m.y * c.dvdx, dtdy = m.y * c.dvdy;
     precise vec2 st = vec2(m.x * c.uv.x + m.z, m.y * c.uv.y + m.w);
@@ -62,11 +62,11 @@ TexCoord2D tex_map_2d(uint ti, TexCtx c) {
     r.dtdy = dtdy;
     return r;
   }
-  mat4 xf = textures[ti].xform;
+  mat4 xf = texture_at(ti).xform;
   vec3 pt = tex_xform_point(xf, c.p);
   vec3 dpdx = tex_xform_vector(xf, c.dpdx), dpdy = tex_xform_vector(xf, c.dpdy);
   if (mapping == MAPPING_PLANAR) {
-    vec4 a = textures[ti].map[0], b = textures[ti].map[1];
+    vec4 a = texture_at(ti).map[0], b = texture_at(ti).map[1];
     r.dsdx = dot_exact(a.xyz, dpdx);
     r.dsdy = dot_exact(a.xyz, dpdy);
     r.dtdx = dot_exact(b.xyz, dpdx);
@@ -137,8 +137,8 @@ float checker_bf(float x, float r) {
 
 // Weight of tex2 of checkerboard instruction ti (pbrt-v4 Checkerboard).
 float tex_checkerboard(uint ti, TexCtx c) {
-  if (textures[ti].ip.x == 3u) {
-    mat4 xf = textures[ti].xform;
+  if (texture_at(ti).ip.x == 3u) {
+    mat4 xf = texture_at(ti).xform;
     vec3 p = tex_xform_point(xf, c.p);
     vec3 dx = tex_xform_vector(xf, c.dpdx), dy = tex_xform_vector(xf, c.dpdy);
     precise float rx = 1.5 * max(abs(dx.x), abs(dy.x));
@@ -189,7 +189,7 @@ vec3 marble_color(int i) {
 // pbrt-v4 MarbleTexture: noise-perturbed sine bands through a cubic Bezier colour spline;
 // py = y of the scaled texture-space point, f = its fbm (computed by the caller).
 vec3 tex_marble(uint ti, float py, float f) {
-  precise float m = py + textures[ti].param[0].z * f;
+  precise float m = py + texture_at(ti).param[0].z * f;
   // sin_accurate reduces exactly below 2^15 only and its polynomial overflows to NaN beyond
   // ~1e18: there (bands that differ from the CPU's anyway, docs/textures-spec.md 8) the
   // builtin sine.
@@ -214,10 +214,10 @@ vec3 tex_image(uint ti, TexCtx c) {
   if (any(isnan(st)) || any(isinf(st)) || any(isnan(d0)) || any(isinf(d0)) || any(isnan(d1)) ||
       any(isinf(d1)))
     return vec3(0.0);
-  uint flags = textures[ti].flags;
+  uint flags = texture_at(ti).flags;
   bool is_float = (flags & TEXFLAG_FLOAT) != 0u;
   vec3 f = mipmap_filter(ti, st, d0, d1, is_float);
-  float scale = textures[ti].param[0].x;
+  float scale = texture_at(ti).param[0].x;
   bool invert = (flags & TEXFLAG_INVERT) != 0u;
   if (is_float) {
     precise float v = scale * f.x;
@@ -246,11 +246,11 @@ float sin_pi(float u) {
 // c001 c110 c101 c011 c111), each weight a left-to-right product times the texel value, summed
 // left to right from 0. A float texture reads channel 0; a 1-channel image gives (g, g, g).
 vec3 tex_shirley_array(uint ti, TexCtx c) {
-  bool vol = textures[ti].type == TEXTURE_VOLUME;
-  MipLevel ml = mip_levels[textures[ti].image];
-  uint interp = vol ? 1u : textures[ti].ip.x;
-  ivec3 n = vol ? ivec3(textures[ti].ip.yzw) : ivec3(int(ml.width), int(ml.height), 1);
-  vec3 x3 = vol ? tex_xform_point(textures[ti].xform, c.p) : vec3(tex_map_2d(ti, c).st, 0.0);
+  bool vol = texture_at(ti).type == TEXTURE_VOLUME;
+  MipLevel ml = mip_level_at(texture_at(ti).image);
+  uint interp = vol ? 1u : texture_at(ti).ip.x;
+  ivec3 n = vol ? ivec3(texture_at(ti).ip.yzw) : ivec3(int(ml.width), int(ml.height), 1);
+  vec3 x3 = vol ? tex_xform_point(texture_at(ti).xform, c.p) : vec3(tex_map_2d(ti, c).st, 0.0);
   if (any(isnan(x3)) || any(isinf(x3))) return vec3(0.0);
   precise vec3 X = x3 * vec3(n);
   vec3 fx = floor(X);
@@ -265,7 +265,7 @@ vec3 tex_shirley_array(uint ti, TexCtx c) {
     f = h;
   }
   precise vec3 g = vec3(1.0) - f;
-  bool want_float = (textures[ti].flags & TEXFLAG_FLOAT) != 0u;
+  bool want_float = (texture_at(ti).flags & TEXFLAG_FLOAT) != 0u;
   // Corner k's (di | dj << 1 | dk << 2) in nibble k.
   uint order = vol ? 0x76534210u : 0x3210u;
   int count = interp == 0u ? 1 : (vol ? 8 : 4);
@@ -295,8 +295,8 @@ vec3 tex_shirley_array(uint ti, TexCtx c) {
 
 // Value of instruction ti whose children's values are a0, a1, a2 (docs/textures-spec.md 2).
 vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
-  uint type = textures[ti].type;
-  if (type == TEXTURE_CONSTANT) return textures[ti].param[0].xyz;
+  uint type = texture_at(ti).type;
+  if (type == TEXTURE_CONSTANT) return texture_at(ti).param[0].xyz;
   // Each family below is compiled only into pipelines whose scene reaches it (FEATURES2): the
   // whole interpreter is inlined at its call site, and without the code of the families a
   // scene does not use lavapipe renders textures-image 25-45% and textures-procedural 11%
@@ -322,7 +322,7 @@ vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
       return r;
     }
     case TEXTURE_DIRECTION_MIX: {
-      float amt = abs(dot_exact(c.n, textures[ti].param[0].xyz));
+      float amt = abs(dot_exact(c.n, texture_at(ti).param[0].xyz));
       vec3 t1 = amt != 0.0 ? a0 : vec3(0.0);
       vec3 t2 = amt != 1.0 ? a1 : vec3(0.0);
       precise vec3 r = amt * t1 + (1.0 - amt) * t2;
@@ -330,10 +330,10 @@ vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
     }
     case TEXTURE_BILERP: {
       vec2 st = tex_map_2d(ti, c).st;
-      precise vec3 r = (1.0 - st.x) * (1.0 - st.y) * textures[ti].param[0].xyz +
-                       st.x * (1.0 - st.y) * textures[ti].param[2].xyz +
-                       (1.0 - st.x) * st.y * textures[ti].param[1].xyz +
-                       st.x * st.y * textures[ti].param[3].xyz;
+      precise vec3 r = (1.0 - st.x) * (1.0 - st.y) * texture_at(ti).param[0].xyz +
+                       st.x * (1.0 - st.y) * texture_at(ti).param[2].xyz +
+                       (1.0 - st.x) * st.y * texture_at(ti).param[1].xyz +
+                       st.x * st.y * texture_at(ti).param[3].xyz;
       return r;
     }
   }
@@ -343,18 +343,18 @@ vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
     // (solidnoise, solidturbulence, turbulentstripe), one sin_pi call site (stripe,
     // turbulentstripe), one array lookup (interpimage, volume).
     if (type == TEXTURE_IMAGE_INTERP || type == TEXTURE_VOLUME) return tex_shirley_array(ti, c);
-    vec3 p = tex_xform_point(textures[ti].xform, c.p);
-    vec4 prm = textures[ti].param[0];
+    vec3 p = tex_xform_point(texture_at(ti).xform, c.p);
+    vec4 prm = texture_at(ti).param[0];
     bool tstripe = type == TEXTURE_TURBULENT_STRIPE;
     float arg;
     if (type == TEXTURE_STRIPE) {
-      uint form = textures[ti].ip.x;
+      uint form = texture_at(ti).ip.x;
       precise float xs = form == 0u ? p.x * 0.318309886 : p.x / prm.x;  // x / pi or x / w
       arg = xs;
     } else {
       bool turb = type != TEXTURE_SHIRLEY_NOISE;
       precise vec3 q = prm.y * p;  // turbulentstripe: k2 p
-      float nt = shirley_noise_sum(tstripe ? q : p, turb ? int(textures[ti].ip.x) : 1, turb);
+      float nt = shirley_noise_sum(tstripe ? q : p, turb ? int(texture_at(ti).ip.x) : 1, turb);
       if (!tstripe) {
         precise float v = prm.x * (nt + prm.y);  // scale * (n + offset)
         return vec3(v);
@@ -364,7 +364,7 @@ vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
       arg = xs;
     }
     float s = sin_pi(arg);
-    if (type == TEXTURE_STRIPE && textures[ti].ip.x != 2u) return s > 0.0 ? a0 : a1;
+    if (type == TEXTURE_STRIPE && texture_at(ti).ip.x != 2u) return s > 0.0 ? a0 : a1;
     precise float t = (1.0 + s) / 2.0;
     // stripe smooth: (1 - t) tex1 + t tex2; turbulentstripe: t tex1 + (1 - t) tex2. A child
     // whose weight is 0 counts as 0 (as checkerboard's).
@@ -383,8 +383,8 @@ vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
       case TEXTURE_WINDY:
       case TEXTURE_MARBLE: {
         // One noise_sum call site for all four (windy needs two sums: a loop).
-        mat4 xf = textures[ti].xform;
-        vec4 prm = textures[ti].param[0];
+        mat4 xf = texture_at(ti).xform;
+        vec4 prm = texture_at(ti).param[0];
         precise vec3 p = tex_xform_point(xf, c.p);
         precise vec3 dx = tex_xform_vector(xf, c.dpdx);
         precise vec3 dy = tex_xform_vector(xf, c.dpdy);
@@ -402,7 +402,7 @@ vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
           precise vec3 dxk = sc * dx;
           precise vec3 dyk = sc * dy;
           float omega = windy ? 0.5 : prm.x;
-          int oct = windy ? (k == 0 ? 3 : 6) : int(textures[ti].ip.x);
+          int oct = windy ? (k == 0 ? 3 : 6) : int(texture_at(ti).ip.x);
           v[k] = noise_sum(windy && k == 0 ? pk : p, windy && k == 0 ? dxk : dx,
                            windy && k == 0 ? dyk : dy, omega, oct, type == TEXTURE_WRINKLED,
                            noise_split());
@@ -433,8 +433,8 @@ vec3 tex_eval_rgb(uint root, TexCtx c) {
   if ((FEATURES & FEATURE_TEXTURES) == 0u || root >= uint(textures.length())) return vec3(0.0);
   vec3 stack[MAX_TEXTURE_STACK];
   int top = 0;
-  [[dont_unroll]] for (uint i = textures[root].first; i <= root; ++i) {
-    int k = tex_child_count(textures[i].type);
+  [[dont_unroll]] for (uint i = texture_at(root).first; i <= root; ++i) {
+    int k = tex_child_count(texture_at(i).type);
     if (top < k) return vec3(0.0);  // malformed program (the host never emits one)
     top -= k;
     vec3 a0 = k > 0 ? stack[top] : vec3(0.0);

@@ -72,7 +72,13 @@ using mat4 = glm::mat4;
 #define BINDING_TEXELS3_TEXELS 31   // view of BINDING_TEXELS3
 #define BINDING_TEX_DATA_TEXELS 32  // view of BINDING_TEX_DATA
 #define BINDING_SAMPLER_TEXELS 33   // view of BINDING_SAMPLER_DATA
-#define TEXEL_VIEW_COUNT 11
+// R32G32B32A32_UINT views of the shading tables (their structs are whole uvec4s).
+#define BINDING_MATERIAL_TEXELS 34  // view of BINDING_MATERIALS (21 texels a Material)
+#define BINDING_LIGHT_TEXELS 35     // view of BINDING_LIGHTS (10 texels a Light)
+#define BINDING_SPHERE_TEXELS 36    // view of BINDING_SPHERES (5 texels a Sphere)
+#define BINDING_MIP_LEVEL_TEXELS 37 // view of BINDING_MIP_LEVELS (1 texel a MipLevel)
+#define BINDING_TEXTURE_TEXELS 38   // view of BINDING_TEXTURES (12 texels a Texture)
+#define TEXEL_VIEW_COUNT 16  // within Vulkan's minimum maxPerStageDescriptorSampledImages (16)
 // Texel index g (a float index into the whole texel table) lives in chunk g >> TEXEL_CHUNK_SHIFT
 // at index g & (TEXEL_CHUNK - 1) of that chunk's binding.
 #define TEXEL_CHUNK_SHIFT 25u
