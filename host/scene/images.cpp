@@ -85,12 +85,18 @@ DecodedImage read_stb(const std::string& path, bool hdr, const SourceLoc& loc) {
   int w = 0, h = 0, n = 0;
   DecodedImage img;
   auto keep = [](int channels) { return channels <= 2 ? 1 : 3; };
+  // The size from the header first: an image beyond the texel tables is refused before stb
+  // allocates it (the fuzzer found a 60-byte file that made it allocate gigabytes).
+  if (stbi_info_from_memory(data.data(), int(data.size()), &w, &h, &n) &&
+      double(w) * double(h) * keep(n) > double(kMaxImageTexels))
+    fail(loc, path, "the image is too large (" + std::to_string(w) + " x " + std::to_string(h) + ")");
   if (hdr) {
     float* px = stbi_loadf_from_memory(data.data(), int(data.size()), &w, &h, &n, 0);
     if (!px) fail(loc, path, std::string("corrupt or unsupported image: ") + stbi_failure_reason());
     img.width = w;
     img.height = h;
     img.channels = keep(n);
+    img.texels.reserve(std::size_t(w) * std::size_t(h) * std::size_t(img.channels));
     for (std::size_t i = 0; i < std::size_t(w) * std::size_t(h); ++i)
       for (int c = 0; c < img.channels; ++c) img.texels.push_back(px[i * std::size_t(n) + std::size_t(c)]);
     stbi_image_free(px);
@@ -105,6 +111,7 @@ DecodedImage read_stb(const std::string& path, bool hdr, const SourceLoc& loc) {
   img.encoding = ColorEncoding{ImageEncoding::SRGB};
   float lut[256];
   for (int i = 0; i < 256; ++i) lut[i] = byte_to_linear(std::uint8_t(i), img.encoding);
+  img.texels.reserve(std::size_t(w) * std::size_t(h) * std::size_t(img.channels));
   for (std::size_t i = 0; i < std::size_t(w) * std::size_t(h); ++i)
     for (int c = 0; c < img.channels; ++c)
       img.texels.push_back(lut[px[i * std::size_t(n) + std::size_t(c)]]);

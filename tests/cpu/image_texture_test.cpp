@@ -555,6 +555,13 @@ TEST(ImageTexture, BadFilesAreLocatedErrorsNamingTheFile) {
   write_bytes(d / "x.tga", {1, 2, 3});
   e = error_of(texture_line("x.tga"));
   EXPECT_NE(e.find("x.tga\": corrupt or unsupported image"), std::string::npos) << e;
+  // A TGA header claiming 8192 x 8192 RGB with three bytes of pixels: stb reads past the end as
+  // zeros, so without a size check it decoded 200 MB and basalt made 800 MB of floats from it
+  // (the image fuzzer's out-of-memory find, at 859 MB). Refused from its header now.
+  write_bytes(d / "huge.tga", {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0x00, 0x20, 0x00, 0x20, 24, 0, 1, 2, 3});
+  EXPECT_EQ(error_of(texture_line("huge.tga")),
+            "t.pbrt:2:35: error: image file \"" + (d / "huge.tga").string() +
+                "\": the image is too large (8192 x 8192)");
   EXPECT_EQ(error_of("WorldBegin\nTexture \"t\" \"spectrum\" \"imagemap\"\n"),
             "t.pbrt:2:1: error: imagemap texture \"t\" needs a \"string filename\" parameter");
   write_png(d / "ok.png", 1, 1, PNG_COLOR_TYPE_GRAY, 8, {3});
