@@ -111,7 +111,8 @@ int run(const Options& opt) {
 
   basalt::BuildTimes times;
   std::vector<std::string> warnings;
-  basalt::SceneTables tables = basalt::build_tables(scene, &times, &warnings);
+  // The parsed meshes are freed as they are flattened: nothing after this reads them.
+  basalt::SceneTables tables = basalt::build_tables_releasing_meshes(scene, &times, &warnings);
   for (const auto& w : warnings) std::cerr << w << "\n";
   // Quality knobs (docs/textures.md): --texture-filter, --noise-octaves.
   static const char* kFilters[] = {"point", "bilinear", "trilinear", "ewa"};

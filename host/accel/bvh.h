@@ -79,11 +79,14 @@ struct Bvh {
 };
 
 /// \brief Builds a BVH over primitive boxes.
-/// \param bounds one box per primitive (finite; degenerate boxes such as points are fine).
-/// \param centroids the split key of each primitive; empty = the centres of \p bounds.
+/// \param bounds one box per primitive (finite; degenerate boxes such as points are fine); the
+///        split key of a primitive is its box's centre.
 /// \return nodes and the primitive order the leaves refer to (a permutation of 0..n-1).
-Bvh build_bvh(std::span<const Aabb> bounds, std::span<const glm::vec3> centroids = {},
-              const BvhOptions& options = {});
+Bvh build_bvh(std::span<const Aabb> bounds, const BvhOptions& options = {});
+
+/// \brief build_bvh over \p bounds, which it empties (and frees) once it has copied them,
+/// before its own arrays grow: the same tree, at a lower peak of memory.
+Bvh build_bvh(std::vector<Aabb>&& bounds, const BvhOptions& options = {});
 
 /// \brief SAH cost of a built tree (pbrt-v4 7.3.2 / MacDonald & Booth 1990): sum over interior
 /// nodes of traversal_cost * A(node) / A(root) plus over leaves of intersect_cost * count *

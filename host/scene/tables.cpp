@@ -436,10 +436,10 @@ void check_emission(const glm::vec3& L, const SourceLoc& loc) {
   if (!all_finite(L)) throw SceneError(loc, "light emission is not finite");
 }
 
-}  // namespace
-
-SceneTables build_tables(const Scene& scene, BuildTimes* times,
-                         std::vector<std::string>* warnings) {
+/// build_tables, freeing each shape's parsed mesh in \p release (the scene itself, or null)
+/// once its vertices and triangles are in the tables.
+SceneTables build_tables_impl(const Scene& scene, Scene* release, BuildTimes* times,
+                              std::vector<std::string>* warnings) {
   SceneTables t;
   gpu::Globals& g = t.globals;
 
@@ -538,6 +538,18 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
 
   // ---- shapes: triangles and spheres in world space, area lights --------------------------
   std::vector<Aabb> tri_bounds, sphere_bounds;
+  {
+    // Sized once from the parsed meshes (displaced ones grow later): no regrowth copies at the
+    // peak of memory (a doubling vector holds both copies while it moves).
+    std::size_t vertices = 0, triangles = 0;
+    for (const Shape& shape : scene.shapes) {
+      vertices += shape.mesh.P.size();
+      triangles += shape.mesh.indices.size() / 3;
+    }
+    t.vertices.reserve(vertices);
+    t.triangles.reserve(triangles);
+    tri_bounds.reserve(triangles);
+  }
   std::unique_ptr<DisplacementTextures> displacement_textures;  // made on first use
   for (const Shape& shape : scene.shapes) {
     const std::uint32_t material = material_of(shape);
@@ -679,6 +691,7 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
     }
     if (!tm.N.empty()) t.features |= gpu::FEATURE_SHADING_NORMALS;
     t.meshes.push_back(mesh);
+    if (release) release->shapes[std::size_t(&shape - scene.shapes.data())].mesh = TriangleMesh{};
   }
 
   // ---- scene bounds: bounding sphere of all kept geometry ---------------------------------
@@ -706,7 +719,7 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
     BvhOptions bvh_options;
     bvh_options.bins = scene.bvh_bins;
     bvh_options.max_leaf = scene.bvh_max_leaf;
-    Bvh bvh = build_bvh(bounds, {}, bvh_options);
+    Bvh bvh = build_bvh(std::move(bounds), bvh_options);
     const auto stop = std::chrono::steady_clock::now();
     if (times) times->seconds_bvh = std::chrono::duration<double>(stop - start).count();
     t.nodes = std::move(bvh.nodes);
@@ -855,6 +868,19 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times,
   sampler_tables(t, sampler);  // docs/sampler-spec.md 3
   return t;
 }
+
+}  // namespace
+
+SceneTables build_tables(const Scene& scene, BuildTimes* times,
+                         std::vector<std::string>* warnings) {
+  return build_tables_impl(scene, nullptr, times, warnings);
+}
+
+SceneTables build_tables_releasing_meshes(Scene& scene, BuildTimes* times,
+                                          std::vector<std::string>* warnings) {
+  return build_tables_impl(scene, &scene, times, warnings);
+}
+
 
 std::vector<std::string> feature_names(std::uint32_t features) {
   static const char* const kNames[gpu::FEATURE_COUNT] = {

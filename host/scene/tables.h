@@ -56,6 +56,13 @@ std::uint64_t table_bytes(const SceneTables& t);
 SceneTables build_tables(const Scene& scene, BuildTimes* times = nullptr,
                          std::vector<std::string>* warnings = nullptr);
 
+/// \brief build_tables that frees each shape's parsed mesh (positions, normals, uvs, indices)
+/// as soon as its vertices and triangles are in the tables, so that the parsed copy is gone
+/// before the BVH build's arrays grow (the command line's peak memory, docs/performance.md).
+/// The same tables; \p scene keeps everything but its shapes' meshes.
+SceneTables build_tables_releasing_meshes(Scene& scene, BuildTimes* times = nullptr,
+                                          std::vector<std::string>* warnings = nullptr);
+
 /// \brief Light selection (docs/path-spec.md 6) by \p mode: "bvh" (pbrt-v4's BVHLightSampler
 /// split between infinite and bounded lights, power within the bounded ones; the default),
 /// "power" (pbrt-v4's PowerLightSampler) or "uniform"; rewrites light_cdf and every pmf.

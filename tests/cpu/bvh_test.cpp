@@ -127,7 +127,7 @@ TEST(Bvh, InvariantsOnRandomTriangles) {
 }
 
 TEST(Bvh, Empty) {
-  Bvh bvh = build_bvh({});
+  Bvh bvh = build_bvh(std::span<const Aabb>{});
   EXPECT_TRUE(bvh.nodes.empty());
   EXPECT_TRUE(bvh.prim_order.empty());
   EXPECT_EQ(bvh_sah_cost(bvh.nodes), 0.0);
@@ -196,7 +196,7 @@ TEST(Bvh, SahBeatsMedianOnClusteredInput) {
   Bvh sah = build_bvh(prims);
   BvhOptions median_options;
   median_options.split = BvhOptions::Split::Median;
-  Bvh median = build_bvh(prims, {}, median_options);
+  Bvh median = build_bvh(prims, median_options);
   check_invariants(sah, prims);
   check_invariants(median, prims);
   double c_sah = bvh_sah_cost(sah.nodes), c_median = bvh_sah_cost(median.nodes);
@@ -204,7 +204,7 @@ TEST(Bvh, SahBeatsMedianOnClusteredInput) {
   // And on uniformly random input the SAH build is no worse than the median split.
   std::vector<Aabb> uniform = bounds_of(random_triangles(4000, 11, 0.3f));
   EXPECT_LT(bvh_sah_cost(build_bvh(uniform).nodes),
-            bvh_sah_cost(build_bvh(uniform, {}, median_options).nodes));
+            bvh_sah_cost(build_bvh(uniform, median_options).nodes));
 }
 
 TEST(Bvh, SameResultWithAnyThreadCount) {
@@ -212,7 +212,7 @@ TEST(Bvh, SameResultWithAnyThreadCount) {
   BvhOptions one, four;
   one.max_threads = 1;
   four.max_threads = 4;
-  Bvh a = build_bvh(prims, {}, one), b = build_bvh(prims, {}, four);
+  Bvh a = build_bvh(prims, one), b = build_bvh(prims, four);
   check_invariants(b, prims);
   ASSERT_EQ(a.nodes.size(), b.nodes.size());
   EXPECT_EQ(0, std::memcmp(a.nodes.data(), b.nodes.data(), a.nodes.size() * sizeof(gpu::BvhNode)));
@@ -220,6 +220,21 @@ TEST(Bvh, SameResultWithAnyThreadCount) {
   EXPECT_EQ(a.depth, b.depth);
 }
 
+
+// The overload that takes the boxes by value (the table build's, which frees them before the
+// build's arrays grow) builds the same tree and leaves the vector empty.
+TEST(Bvh, ConsumingOverloadBuildsTheSameTree) {
+  std::vector<Aabb> prims = bounds_of(random_triangles(60000, 6));
+  Bvh a = build_bvh(prims);
+  std::vector<Aabb> moved = prims;
+  Bvh b = build_bvh(std::move(moved));
+  EXPECT_TRUE(moved.empty());
+  EXPECT_EQ(moved.capacity(), 0u);
+  ASSERT_EQ(a.nodes.size(), b.nodes.size());
+  EXPECT_EQ(0, std::memcmp(a.nodes.data(), b.nodes.data(), a.nodes.size() * sizeof(gpu::BvhNode)));
+  EXPECT_EQ(a.prim_order, b.prim_order);
+  check_invariants(b, prims);
+}
 // ---- reference traversal -------------------------------------------------------------------
 
 struct Ray {
