@@ -324,9 +324,9 @@ int main(int argc, char** argv) {
        {"scene", "independent", "stratified", "halton", "paddedsobol", "zsobol", "sobol",
         "pmj02bn"}},
       {"--light-sampler", &opt.light_sampler,
-       "light selection instead of the scene's Integrator \"lightsampler\": bvh (default), power "
-       "or uniform",
-       {"scene", "bvh", "power", "uniform"}},
+       "light selection instead of the scene's Integrator \"lightsampler\": bvh (default), "
+       "exhaustive, power or uniform",
+       {"scene", "bvh", "exhaustive", "power", "uniform"}},
       {"--pipeline", &opt.pipeline,
        "GPU pipeline: specialised to the scene's features (default) or all (every feature compiled "
        "in; same image, for timing)",

@@ -22,10 +22,10 @@ namespace {
 glm::vec3 sample_direct(const SceneTables& scene, const SurfacePoint& sp, const Bsdf& bsdf,
                         glm::vec3 wo, glm::vec3 ng_l, std::uint32_t b, const PathRng& r,
                         std::uint64_t& rays) {
-  const std::uint32_t li = select_light(scene, r(dim::bounce(b, dim::LIGHT_SELECT)));
-  if (li == gpu::INVALID_INDEX) return glm::vec3(0.0f);
-  const gpu::Light& light = scene.lights[li];
-  if (!(light.pmf > 0.0f)) return glm::vec3(0.0f);  // never picked by a consistent CDF
+  // Picked at p with the (bumped) shading normal (spec 6.1).
+  const PickedLight pick = pick_light(scene, r(dim::bounce(b, dim::LIGHT_SELECT)), sp.g.p, sp.g.ns);
+  if (pick.index == gpu::INVALID_INDEX || !(pick.pmf > 0.0f)) return glm::vec3(0.0f);
+  const gpu::Light& light = scene.lights[pick.index];
   const LightSample ls = sample_light(
       scene, light, sp.g.p, sp.g.ng, sp.g.m,
       glm::vec2(r(dim::bounce(b, dim::LIGHT_U0)), r(dim::bounce(b, dim::LIGHT_U1))));
@@ -37,8 +37,8 @@ glm::vec3 sample_direct(const SceneTables& scene, const SurfacePoint& sp, const 
   if (!any_positive(f)) return glm::vec3(0.0f);
   ++rays;
   if (intersect_any(scene, shadow_ray(sp.g.p, sp.g.ng, sp.g.m, ls))) return glm::vec3(0.0f);
-  if (ls.delta) return f * ls.Li / light.pmf;
-  const float pl = light.pmf * ls.pdf;
+  if (ls.delta) return f * ls.Li / pick.pmf;
+  const float pl = pick.pmf * ls.pdf;
   if (!(pl > 0.0f)) return glm::vec3(0.0f);  // underflow of pmf * pdf
   const float pb = bsdf_pdf(bsdf, wo, wi, ng_l, r.stream(dim::bounce(b, dim::STREAM_NEE_PDF)));
   return f * ls.Li * mis_light(scene.globals.render_opts.y, pl, pb) / pl;
@@ -54,7 +54,8 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
   const gpu::Globals& g = scene.globals;
   const std::uint32_t max_depth = g.image.z;
   const std::uint32_t n_inf = std::min(g.counts.y, gpu::MAX_INFINITE_LIGHTS);
-  glm::vec3 L(0.0f), beta(1.0f), p_prev(0.0f), ng_prev(0.0f);
+  // ns_prev: the previous vertex's (bumped) shading normal, which light picking saw there.
+  glm::vec3 L(0.0f), beta(1.0f), p_prev(0.0f), ng_prev(0.0f), ns_prev(0.0f);
   float m_prev = 0.0f;
   bool specular = false;
   float pdf_prev = 0.0f, eta_scale = 1.0f;
@@ -95,8 +96,9 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
         if (depth == 0 || specular) {
           L += beta * Le;
         } else {
-          const float pl = light.pmf * area_light_pdf(scene, light, p_prev, ng_prev, m_prev, sp.g.p,
-                                                          sp.g.ng, ray.d);
+          const float pl = pick_light_pmf(scene, sp.light, p_prev, ns_prev) *
+                           area_light_pdf(scene, light, p_prev, ng_prev, m_prev, sp.g.p, sp.g.ng,
+                                          ray.d);
           L += beta * mis_bsdf(g.render_opts.y, pdf_prev, pl) * Le;
         }
       }
@@ -147,6 +149,7 @@ glm::vec3 trace_path(const SceneTables& scene, Ray ray, const PathRng& r, std::u
     if (bs.flags & gpu::BSDF_TRANSMISSION) eta_scale *= bs.eta * bs.eta;
     p_prev = sp.g.p;
     ng_prev = sp.g.ng;
+    ns_prev = sp.g.ns;
     m_prev = sp.g.m;
     // Differentials survive exactly-specular reflection and transmission only (3.1).
     const std::uint32_t kind = bs.flags & (gpu::BSDF_SPECULAR | gpu::BSDF_REFLECTION |

@@ -2,8 +2,10 @@
 #include "cpu/lights.h"
 
 #include <algorithm>
+#include <bit>
 #include <cfloat>
 #include <cmath>
+#include <vector>
 
 #include "cpu/envmap.h"
 #include "cpu/sampling.h"
@@ -140,6 +142,117 @@ std::uint32_t select_light(const SceneTables& scene, float u) {
     }
   }
   return lo;
+}
+
+namespace {
+
+/// Lights of infinite extent are picked by their cdf share alone (spec section 6).
+bool is_infinite_extent(const gpu::Light& l) {
+  return l.type == gpu::LIGHT_DISTANT || l.type == gpu::LIGHT_INFINITE_UNIFORM ||
+         l.type == gpu::LIGHT_INFINITE_IMAGE;
+}
+
+/// True when the tables ask for importance selection of the bounded lights (spec 6.1).
+bool importance_selection(const SceneTables& scene) {
+  return (scene.features2 & gpu::FEATURE2_LIGHT_IMPORTANCE) &&
+         scene.globals.light_opts.x == gpu::LIGHT_SELECT_IMPORTANCE;
+}
+
+/// The bounded lights' total pmf, spread over them by importance (spec 6.1).
+float bounded_mass(const SceneTables& scene) {
+  return std::bit_cast<float>(scene.globals.light_opts.y);
+}
+
+/// cos(a - b) of two angles given by sine and cosine, 1 if a < b (pbrt-v4 cosSubClamped).
+float cos_minus_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
+  if (cos_a > cos_b) return 1.0f;
+  return cos_a * cos_b + sin_a * sin_b;
+}
+
+/// sin(a - b) of two angles given by sine and cosine, 0 if a < b (pbrt-v4 sinSubClamped).
+float sin_minus_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
+  if (cos_a > cos_b) return 0.0f;
+  return sin_a * cos_b - cos_a * sin_b;
+}
+
+}  // namespace
+
+float light_importance(const gpu::Light& light, glm::vec3 p, glm::vec3 n) {
+  const float phi = light.bound_c.w;
+  if (!(phi > 0.0f)) return 0.0f;
+  const glm::vec3 centre(light.bound_c), axis(light.bound_w);
+  const float radius = light.bound_e.x, cos_o = light.bound_w.w, cos_e = light.bound_e.y;
+  const glm::vec3 to_p = p - centre;
+  const float dist2 = glm::dot(to_p, to_p);
+  // Direction from the bounds to p; along the axis when p is at the centre (spec 6.1).
+  const glm::vec3 wi = dist2 > 0.0f ? to_p / std::sqrt(dist2) : axis;
+  float cos_w = glm::dot(axis, wi);
+  if (light.flags & gpu::LIGHT_FLAG_TWOSIDED) cos_w = std::fabs(cos_w);
+  const float sin_w = safe_sqrt(1.0f - cos_w * cos_w);
+  // Half-angle of the cone that the bounds' sphere subtends from p (all directions inside).
+  float cos_b = -1.0f;
+  if (dist2 > 0.0f && !(dist2 < radius * radius))
+    cos_b = safe_sqrt(1.0f - radius * radius / dist2);
+  const float sin_b = safe_sqrt(1.0f - cos_b * cos_b);
+  const float sin_o = safe_sqrt(1.0f - cos_o * cos_o);
+  // theta' = max(0, theta_w - theta_o - theta_b): the smallest angle to the emission cone.
+  const float cos_x = cos_minus_clamped(sin_w, cos_w, sin_o, cos_o);
+  const float sin_x = sin_minus_clamped(sin_w, cos_w, sin_o, cos_o);
+  const float cos_theta_p = cos_minus_clamped(sin_x, cos_x, sin_b, cos_b);
+  if (cos_theta_p <= cos_e) return 0.0f;
+  const float d2 = std::max(dist2, radius);  // pbrt-v4's clamp: |diagonal| / 2
+  float importance = d2 > 0.0f ? phi * cos_theta_p / d2 : gpu::LIGHT_IMPORTANCE_CAP;
+  // The cosine at the receiver, with the same cone allowance (theta_i - theta_b).
+  const float cos_i = std::fabs(glm::dot(wi, n));
+  const float sin_i = safe_sqrt(1.0f - cos_i * cos_i);
+  importance *= cos_minus_clamped(sin_i, cos_i, sin_b, cos_b);
+  if (!(importance > 0.0f)) return 0.0f;  // negative or NaN
+  return std::min(importance, gpu::LIGHT_IMPORTANCE_CAP);
+}
+
+PickedLight pick_light(const SceneTables& scene, float u, glm::vec3 p, glm::vec3 n) {
+  PickedLight out;
+  out.index = select_light(scene, u);
+  if (out.index == gpu::INVALID_INDEX) return out;
+  const gpu::Light& chosen = scene.lights[out.index];
+  out.pmf = chosen.pmf;
+  if (!importance_selection(scene) || is_infinite_extent(chosen) || !(chosen.pmf > 0.0f))
+    return out;
+  // The importance of every light at p (0 for those of infinite extent), then the light
+  // whose interval of the running sum holds u' * sum, u' = u within the chosen cdf share.
+  const std::uint32_t count = light_count(scene);
+  std::vector<float> importance(count);
+  float total = 0.0f;
+  for (std::uint32_t k = 0; k < count; ++k) {
+    importance[k] = light_importance(scene.lights[k], p, n);
+    total += importance[k];
+  }
+  if (!(total > 0.0f)) {
+    out.pmf = 0.0f;
+    return out;
+  }
+  const float u_share = std::clamp((u - scene.light_cdf[out.index]) / chosen.pmf, 0.0f,
+                                   0x1.fffffep-1f);
+  const float target = u_share * total;
+  float running = 0.0f;
+  for (std::uint32_t k = 0; k < count; ++k) {
+    if (!(importance[k] > 0.0f)) continue;
+    out.index = k;  // the last light with importance, should rounding leave target unmet
+    running += importance[k];
+    if (target < running) break;
+  }
+  out.pmf = bounded_mass(scene) * (importance[out.index] / total);
+  return out;
+}
+
+float pick_light_pmf(const SceneTables& scene, std::uint32_t index, glm::vec3 p, glm::vec3 n) {
+  const gpu::Light& light = scene.lights[index];
+  if (!importance_selection(scene) || is_infinite_extent(light)) return light.pmf;
+  float total = 0.0f;
+  const std::uint32_t count = light_count(scene);
+  for (std::uint32_t k = 0; k < count; ++k) total += light_importance(scene.lights[k], p, n);
+  if (!(total > 0.0f)) return 0.0f;
+  return bounded_mass(scene) * (light_importance(light, p, n) / total);
 }
 
 glm::vec3 area_Le(const gpu::Light& light, glm::vec3 nl, glm::vec3 w) {

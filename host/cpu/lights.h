@@ -29,6 +29,26 @@ std::uint32_t light_count(const SceneTables& scene);
 ///        search); INVALID_INDEX without lights.
 std::uint32_t select_light(const SceneTables& scene, float u);
 
+/// \brief Importance of \p light at point p with shading normal n (spec section 6.1; pbrt-v4
+///        LightBounds::Importance over the light's bound_* fields); 0 for a light without
+///        bounds (infinite extent, no power), at most LIGHT_IMPORTANCE_CAP.
+float light_importance(const gpu::Light& light, glm::vec3 p, glm::vec3 n);
+
+/// \brief A light picked for next-event estimation and the probability of that pick.
+struct PickedLight {
+  std::uint32_t index = gpu::INVALID_INDEX;  // INVALID_INDEX: no light
+  float pmf = 0.0f;
+};
+
+/// \brief The light NEE uses at shading point p (shading normal n) for u in [0,1) (spec
+///        sections 6 and 6.1): select_light's, or with importance selection on and a bounded
+///        light selected, the bounded light whose importance interval holds u rescaled within
+///        that light's cdf share. pmf 0 / INVALID_INDEX: no light.
+PickedLight pick_light(const SceneTables& scene, float u, glm::vec3 p, glm::vec3 n);
+
+/// \brief The probability that pick_light at (p, n) returns light \p index (spec 6.1).
+float pick_light_pmf(const SceneTables& scene, std::uint32_t index, glm::vec3 p, glm::vec3 n);
+
 /// \brief Samples light at shading point p (geometric normal ng, or 0 for a point in space;
 ///        magnitude bound m) with u = (u0, u1) (spec section 6; ng and m only decide a sphere
 ///        light's inside test).

@@ -659,9 +659,11 @@ void Parser::integrator(Tokenizer& tok, const Token& d) {
     throw SceneError(ps.loc_of("maxdepth", d.loc), "maxdepth must not be negative");
   in.regularize = ps.get_bool("regularize", false);
   in.light_sampler = ps.get_string("lightsampler", "bvh");
-  if (in.light_sampler != "bvh" && in.light_sampler != "uniform" && in.light_sampler != "power")
+  if (in.light_sampler != "bvh" && in.light_sampler != "uniform" && in.light_sampler != "power" &&
+      in.light_sampler != "exhaustive")
     throw SceneError(ps.loc_of("lightsampler", d.loc),
-                     "unknown lightsampler '" + in.light_sampler + "' (bvh, uniform or power)");
+                     "unknown lightsampler '" + in.light_sampler +
+                         "' (bvh, exhaustive, uniform or power)");
   // pbrt-v4's BSDF regularisation is not implemented: refuse it rather than ignore it.
   if (in.regularize)
     throw SceneError(ps.loc_of("regularize", d.loc),

@@ -3,6 +3,8 @@
 #include "scene/tables.h"
 
 #include <algorithm>
+#include <bit>
+#include <cfloat>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -397,6 +399,74 @@ double light_power(const gpu::Light& l, const std::vector<gpu::Sphere>& spheres,
     default: break;
   }
   return p > 0.0 ? p : 0.0;  // negative emission or NaN: never picked (unless all are 0)
+}
+
+/// The importance bounds of light l (docs/path-spec.md 6.1; pbrt-v4 PointLight, SpotLight and
+/// DiffuseAreaLight::Bounds, with max(r, g, b) for pbrt-v4's Spectrum::MaxValue): bound_c,
+/// bound_w and bound_e; phi = 0 for lights of infinite extent and for those without power.
+void set_light_bounds(gpu::Light& l, const SceneTables& t) {
+  const double emit = std::max({double(l.L.x), double(l.L.y), double(l.L.z)});
+  glm::vec3 lo(0.0f), hi(0.0f), w(0.0f, 0.0f, 1.0f);
+  double phi = 0.0;
+  float cos_o = -1.0f, cos_e = 0.0f;  // a point light: every direction, out to 90 degrees
+  switch (l.type) {
+    case gpu::LIGHT_POINT:
+      lo = hi = glm::vec3(l.pos);
+      phi = 4.0 * kPi * emit;
+      break;
+    case gpu::LIGHT_SPOT: {
+      lo = hi = glm::vec3(l.pos);
+      w = glm::vec3(l.dir);
+      phi = 4.0 * kPi * emit;
+      const double cos_start = l.params.x, cos_end = l.params.y;
+      cos_o = l.params.x;
+      cos_e = float(std::cos(std::acos(std::clamp(cos_end, -1.0, 1.0)) -
+                             std::acos(std::clamp(cos_start, -1.0, 1.0))));
+      // pbrt-v4's slop for the importance's round-off where the falloff is a step.
+      if (cos_e == 1.0f && cos_end != cos_start) cos_e = 0.999f;
+      break;
+    }
+    case gpu::LIGHT_AREA_TRIANGLE: {
+      const gpu::Triangle& tri = t.triangles[l.prim];
+      const gpu::Mesh& mesh = t.meshes[tri.mesh];
+      const glm::vec3 p0(t.vertices[tri.v0].p_u), p1(t.vertices[tri.v1].p_u),
+          p2(t.vertices[tri.v2].p_u);
+      lo = glm::min(p0, glm::min(p1, p2));
+      hi = glm::max(p0, glm::max(p1, p2));
+      phi = kPi * emit * double(l.params.x);  // pi L A, not doubled when two-sided (pbrt-v4)
+      // The emitting side: the triangle's geometric normal as path-spec 4 orients it.
+      const glm::vec3 cr = glm::cross(p0 - p2, p1 - p2);
+      const float len = glm::length(cr);
+      w = len > 0.0f ? cr / len : glm::vec3(0.0f, 0.0f, 1.0f);
+      cos_o = 1.0f;
+      if (mesh.flags & gpu::SHAPE_FLAG_HAS_NORMALS) {
+        // Face-forwarded to the vertex normals at each hit: to their sum here (pbrt-v4
+        // Triangle::NormalBounds), and every direction when they disagree in side, where the
+        // emitting side changes across the triangle.
+        const glm::vec3 n0(t.vertices[tri.v0].n_v), n1(t.vertices[tri.v1].n_v),
+            n2(t.vertices[tri.v2].n_v);
+        if (glm::dot(w, n0 + n1 + n2) < 0.0f) w = -w;
+        if (glm::dot(w, n0) < 0.0f || glm::dot(w, n1) < 0.0f || glm::dot(w, n2) < 0.0f)
+          cos_o = -1.0f;
+      } else if (mesh.flags & gpu::SHAPE_FLAG_FLIP_NORMAL) {
+        w = -w;
+      }
+      break;
+    }
+    case gpu::LIGHT_AREA_SPHERE: {
+      const glm::vec4 cr = t.spheres[l.prim].center_radius;
+      lo = glm::vec3(cr) - glm::vec3(cr.w);
+      hi = glm::vec3(cr) + glm::vec3(cr.w);
+      phi = kPi * emit * 4.0 * kPi * double(cr.w) * cr.w;  // normals: the whole sphere
+      break;
+    }
+    default:  // distant and infinite: picked by their share of the cdf, not by importance
+      break;
+  }
+  if (!(phi > 0.0) || !std::isfinite(phi) || !all_finite(lo) || !all_finite(hi)) phi = 0.0;
+  l.bound_c = glm::vec4(0.5f * (lo + hi), float(std::min(phi, double(FLT_MAX))));
+  l.bound_w = glm::vec4(w, cos_o);
+  l.bound_e = glm::vec4(0.5f * glm::length(hi - lo), cos_e, 0.0f, 0.0f);
 }
 
 gpu::Light area_light(std::uint32_t type, std::uint32_t prim, const AreaLight& a) {
@@ -927,10 +997,14 @@ std::vector<std::string> feature_names(std::uint32_t features) {
 std::string apply_light_sampler(SceneTables& t, const std::string& mode) {
   // "bvh" (the default): pbrt-v4's BVHLightSampler top-level split: each light of infinite
   // extent (distant, infinite) with power is picked with probability 1 / (n_inf + 1), the
-  // bounded lights share the rest in proportion to their power (pbrt-v4 Light::Phi); basalt
-  // does not bound the lights in space below that split. "power": pbrt-v4's PowerLightSampler,
-  // every light in proportion to its power (infinite lights with their pi R^2-scaled power,
-  // which starves small bright lights). "uniform": pbrt-v4's UniformLightSampler.
+  // bounded lights share the rest; within that share they are picked by their importance at
+  // the shading point (path-spec 6.1) when at most LIGHT_IMPORTANCE_MAX_BVH of them have
+  // power, else in proportion to their power (pbrt-v4 Light::Phi). "exhaustive": pbrt-v4's
+  // ExhaustiveLightSampler, the same split with importance over any number of bounded lights.
+  // "power": pbrt-v4's PowerLightSampler, every light in proportion to its power (infinite
+  // lights with their pi R^2-scaled power, which starves small bright lights). "uniform":
+  // pbrt-v4's UniformLightSampler.
+  const bool split = mode == "bvh" || mode == "exhaustive";
   std::vector<double> power(t.lights.size());
   for (std::size_t i = 0; i < t.lights.size(); ++i)
     power[i] = mode == "uniform" ? 1.0
@@ -942,13 +1016,18 @@ std::string apply_light_sampler(SceneTables& t, const std::string& mode) {
   };
   double bounded_power = 0.0;
   int n_inf = 0;
+  std::uint32_t n_bounded = 0;  // bounded lights with importance bounds (phi > 0)
   for (std::size_t i = 0; i < t.lights.size(); ++i) {
-    if (infinite_extent(t.lights[i]))
+    gpu::Light& l = t.lights[i];
+    set_light_bounds(l, t);
+    if (infinite_extent(l)) {
       n_inf += power[i] > 0.0;
-    else
+    } else {
       bounded_power += power[i];
+      n_bounded += l.bound_c.w > 0.0f;
+    }
   }
-  if (mode == "bvh" && n_inf > 0) {
+  if (split && n_inf > 0) {
     const int shares = n_inf + (bounded_power > 0.0 ? 1 : 0);
     for (std::size_t i = 0; i < t.lights.size(); ++i)
       power[i] = infinite_extent(t.lights[i])
@@ -963,6 +1042,20 @@ std::string apply_light_sampler(SceneTables& t, const std::string& mode) {
     for (std::size_t i = 0; i < t.lights.size(); ++i)
       t.lights[i].pmf = t.light_cdf[i + 1] - t.light_cdf[i];
   }
+  // Importance within the bounded lights' share (path-spec 6.1): their total pmf is the mass
+  // that light_pick spreads over them by importance.
+  const bool importance =
+      bounded_power > 0.0 && n_bounded > 0 &&
+      (mode == "exhaustive" || (mode == "bvh" && n_bounded <= gpu::LIGHT_IMPORTANCE_MAX_BVH));
+  float mass = 0.0f;
+  for (const gpu::Light& l : t.lights)
+    if (!infinite_extent(l)) mass += l.pmf;
+  t.globals.light_opts =
+      importance ? glm::uvec4(gpu::LIGHT_SELECT_IMPORTANCE, std::bit_cast<std::uint32_t>(mass), 0u, 0u)
+                 : glm::uvec4(0u);
+  t.features2 = importance ? (t.features2 | gpu::FEATURE2_LIGHT_IMPORTANCE)
+                           : (t.features2 & ~gpu::FEATURE2_LIGHT_IMPORTANCE);
+  t.globals.features.y = t.features2;
   return mode;
 }
 

@@ -135,13 +135,15 @@ uint material_texture(uint m, uint s) {
 // Light i.
 Light light_at(uint i) {
   if (TEXEL_TABLES == 0u) return lights[i];
-  uint k = 10u * i;
+  uint k = 13u * i;
   uvec4 h = texelFetch(light_texels, int(k));
   return Light(h.x, h.y, h.z, uintBitsToFloat(h.w), TEXEL_F(light_texels, k + 1u),
                TEXEL_F(light_texels, k + 2u), TEXEL_F(light_texels, k + 3u),
                TEXEL_F(light_texels, k + 4u), texelFetch(light_texels, int(k + 5u)),
                mat4(TEXEL_F(light_texels, k + 6u), TEXEL_F(light_texels, k + 7u),
-                    TEXEL_F(light_texels, k + 8u), TEXEL_F(light_texels, k + 9u)));
+                    TEXEL_F(light_texels, k + 8u), TEXEL_F(light_texels, k + 9u)),
+               TEXEL_F(light_texels, k + 10u), TEXEL_F(light_texels, k + 11u),
+               TEXEL_F(light_texels, k + 12u));
 }
 // Sphere i.
 Sphere sphere_at(uint i) {

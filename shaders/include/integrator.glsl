@@ -63,6 +63,7 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
   float eta_scale = 1.0;
   vec3 p_prev = ray.o;
   vec3 ng_prev = vec3(0.0);
+  vec3 ns_prev = vec3(0.0);  // the previous vertex's (bumped) shading normal: light_pick_pmf
   float m_prev = 0.0;
   uint depth = 0u;
   uint crossings = 0u;
@@ -90,7 +91,7 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
       if (any_positive(Le)) {
         float w = 1.0;
         if (!(depth == 0u || specular)) {
-          float pl = light_at(sp.light).pmf *
+          float pl = light_pick_pmf(sp.light, num_lights, p_prev, ns_prev) *
                      light_pdf(sp.light, p_prev, ng_prev, m_prev, sp.p, sp.ng, ray.d);
           w = mis_bsdf(pdf_prev, pl);
         }
@@ -146,8 +147,10 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
     float pmf = 0.0;
     vec3 wi_l = vec3(0.0), f_nee = vec3(0.0);
     if (nee) {
-      uint li = light_select(bounce_sample(us, px, py, s, dim, DIM_LIGHT_SELECT), num_lights);
-      pmf = light_at(li).pmf;
+      LightPick pick = light_pick(bounce_sample(us, px, py, s, dim, DIM_LIGHT_SELECT),
+                                  num_lights, sp.p, sp.ns);
+      uint li = pick.li;
+      pmf = pick.pmf;
       vec2 ul = vec2(bounce_sample(us, px, py, s, dim, DIM_LIGHT_U0),
                      bounce_sample(us, px, py, s, dim, DIM_LIGHT_U1));
       ls = light_sample(li, sp.p, sp.ng, sp.m, ul);
@@ -195,6 +198,7 @@ vec3 path_radiance(uint px, uint py, uint s, inout uint rays) {
     if ((bs.flags & BSDF_TRANSMISSION) != 0u) eta_scale *= bs.eta * bs.eta;
     p_prev = sp.p;
     ng_prev = sp.ng;
+    ns_prev = sp.ns;
     m_prev = sp.m;
     // Differentials survive exactly-specular reflection and transmission only (3.1).
     uint kind = bs.flags & (BSDF_SPECULAR | BSDF_REFLECTION | BSDF_TRANSMISSION | BSDF_DIFFUSE |

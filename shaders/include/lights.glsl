@@ -43,6 +43,104 @@ uint light_select(float u, uint n) {
   return lo;
 }
 
+// Whether light li has infinite extent (distant, infinite): picked by its cdf share alone.
+bool light_infinite_extent(uint li) {
+  uint type = light_at(li).type;
+  return type == LIGHT_DISTANT || type == LIGHT_INFINITE_UNIFORM || type == LIGHT_INFINITE_IMAGE;
+}
+
+// Whether the bounded lights are picked by importance (docs/path-spec.md 6.1).
+bool light_importance_on() {
+  return (FEATURES2 & FEATURE2_LIGHT_IMPORTANCE) != 0u &&
+         globals.light_opts.x == LIGHT_SELECT_IMPORTANCE;
+}
+
+// cos(theta_a - theta_b), 1 when theta_a < theta_b (pbrt-v4 LightBounds::Importance).
+float cos_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
+  return cos_a > cos_b ? 1.0 : cos_a * cos_b + sin_a * sin_b;
+}
+
+// sin(theta_a - theta_b), 0 when theta_a < theta_b (pbrt-v4 LightBounds::Importance).
+float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
+  return cos_a > cos_b ? 0.0 : sin_a * cos_b - cos_a * sin_b;
+}
+
+// Importance of light li at point p with shading normal n, from its bounds (path-spec 6.1;
+// pbrt-v4 LightBounds::Importance): 0 for lights without bounds.
+float light_importance(uint li, vec3 p, vec3 n) {
+  Light l = light_at(li);
+  float phi = l.bound_c.w;
+  if (!(phi > 0.0)) return 0.0;
+  float r = l.bound_e.x;
+  vec3 v = p - l.bound_c.xyz;
+  float dist2 = dot(v, v);
+  float d2 = max(dist2, r);
+  vec3 wi = dist2 > 0.0 ? v * inversesqrt(dist2) : l.bound_w.xyz;
+  float cos_w = dot(l.bound_w.xyz, wi);
+  if ((l.flags & LIGHT_FLAG_TWOSIDED) != 0u) cos_w = abs(cos_w);
+  float sin_w = safe_sqrt(1.0 - cos_w * cos_w);
+  // The cone of directions from p to the bounds' sphere (the whole sphere from inside).
+  float cos_b = (dist2 < r * r || dist2 == 0.0) ? -1.0 : safe_sqrt(1.0 - r * r / dist2);
+  float sin_b = safe_sqrt(1.0 - cos_b * cos_b);
+  float cos_o = l.bound_w.w;
+  float sin_o = safe_sqrt(1.0 - cos_o * cos_o);
+  float cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+  float sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+  float cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
+  if (cos_p <= l.bound_e.y) return 0.0;
+  float cos_i = abs(dot(wi, n));
+  float sin_i = safe_sqrt(1.0 - cos_i * cos_i);
+  float imp = (d2 > 0.0 ? phi * cos_p / d2 : LIGHT_IMPORTANCE_CAP) *
+              cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
+  return imp > 0.0 ? min(imp, LIGHT_IMPORTANCE_CAP) : 0.0;
+}
+
+// A picked light and the probability of picking it.
+struct LightPick {
+  uint li;
+  float pmf;
+};
+
+// Picks one of the n lights with u for shading point p, shading normal n (path-spec 6, 6.1):
+// by the light cdf, and when importance is on a bounded light's cdf share is spent again over
+// all bounded lights by their importance at p. pmf = 0: no light.
+LightPick light_pick(float u, uint n, vec3 p, vec3 ns) {
+  uint li = light_select(u, n);
+  float pmf = light_at(li).pmf;
+  if (!light_importance_on() || light_infinite_extent(li) || !(pmf > 0.0))
+    return LightPick(li, pmf);
+  // u within the picked light's share of the cdf, uniform in [0, 1).
+  float up = clamp((u - light_cdf[li]) / pmf, 0.0, ONE_MINUS_EPSILON);
+  float sum = 0.0;
+  for (uint k = 0u; k < n; ++k) sum += light_importance(k, p, ns);
+  if (!(sum > 0.0)) return LightPick(li, 0.0);
+  float target = up * sum, acc = 0.0, picked = 0.0;
+  for (uint k = 0u; k < n; ++k) {
+    float w = light_importance(k, p, ns);
+    if (w > 0.0) {
+      li = k;
+      picked = w;
+      acc += w;
+      if (target < acc) break;
+    }
+  }
+  return LightPick(li, uintBitsToFloat(globals.light_opts.y) * (picked / sum));
+}
+
+// The probability that light_pick at (p, ns) picks light li of the n lights (the MIS weight
+// of an emitting hit, path-spec 7).
+float light_pick_pmf(uint li, uint n, vec3 p, vec3 ns) {
+  float pmf = light_at(li).pmf;
+  if (!light_importance_on() || light_infinite_extent(li)) return pmf;
+  float sum = 0.0, own = 0.0;
+  for (uint k = 0u; k < n; ++k) {
+    float w = light_importance(k, p, ns);
+    sum += w;
+    if (k == li) own = w;
+  }
+  return sum > 0.0 ? uintBitsToFloat(globals.light_opts.y) * (own / sum) : 0.0;
+}
+
 // Emitted radiance of area light li leaving its surface with normal n towards w (pbrt-v4
 // DiffuseAreaLight::L): L on the front side or when two-sided, else 0.
 vec3 area_le(uint li, vec3 n, vec3 w) {

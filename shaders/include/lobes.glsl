@@ -15,7 +15,6 @@
 #include "trig.glsl"
 
 const float INV_4PI = 0.07957747154594766788;
-const float ONE_MINUS_EPSILON = 0.99999994;  // largest float below 1 (pbrt OneMinusEpsilon)
 
 // Material kinds whose BSDFs may contain each lobe (the lobe's code is compiled only if the
 // scene has one of them; docs/materials-spec.md section 3, smooth microfacet lobes included).

@@ -8,6 +8,7 @@ const float PI_OVER_2 = 1.57079632679489661923;
 const float PI_OVER_4 = 0.78539816339744830962;
 const float FLT_MAX = 3.402823466e+38;
 const float FLT_MIN = 1.17549435e-38;  // smallest normal float
+const float ONE_MINUS_EPSILON = 0.99999994;  // largest float below 1 (pbrt OneMinusEpsilon)
 
 // sqrt clamped at 0 so that rounding below zero gives 0, not NaN (pbrt-v4 SafeSqrt).
 float safe_sqrt(float x) { return sqrt(max(x, 0.0)); }

@@ -74,7 +74,7 @@ using mat4 = glm::mat4;
 #define BINDING_SAMPLER_TEXELS 33   // view of BINDING_SAMPLER_DATA
 // R32G32B32A32_UINT views of the shading tables (their structs are whole uvec4s).
 #define BINDING_MATERIAL_TEXELS 34  // view of BINDING_MATERIALS (21 texels a Material)
-#define BINDING_LIGHT_TEXELS 35     // view of BINDING_LIGHTS (10 texels a Light)
+#define BINDING_LIGHT_TEXELS 35     // view of BINDING_LIGHTS (13 texels a Light)
 #define BINDING_SPHERE_TEXELS 36    // view of BINDING_SPHERES (5 texels a Sphere)
 #define BINDING_MIP_LEVEL_TEXELS 37 // view of BINDING_MIP_LEVELS (1 texel a MipLevel)
 #define BINDING_TEXTURE_TEXELS 38   // view of BINDING_TEXTURES (12 texels a Texture)
@@ -150,7 +150,8 @@ BASALT_CONST uint FEATURE2_SAMPLER_ZSOBOL = 1u << 13;
 BASALT_CONST uint FEATURE2_SAMPLER_SOBOL = 1u << 14;
 BASALT_CONST uint FEATURE2_SAMPLER_PMJ02BN = 1u << 15;
 BASALT_CONST uint FEATURE2_SAMPLERS = 0x3fu << 10;     // all six
-BASALT_CONST uint FEATURE2_COUNT = 16u;
+BASALT_CONST uint FEATURE2_LIGHT_IMPORTANCE = 1u << 16;  // lights picked by importance (path-spec 6.1)
+BASALT_CONST uint FEATURE2_COUNT = 17u;
 
 // ---- primitive references ------------------------------------------------------------
 // A BVH leaf covers prim_refs[a .. a+b). A ref is a triangle index, or a sphere index
@@ -362,6 +363,14 @@ BASALT_CONST uint LIGHT_AREA_SPHERE = 6u;
 BASALT_CONST uint LIGHT_INFINITE_IMAGE = 7u;  // equal-area octahedral image (pbrt-v4)
 BASALT_CONST uint LIGHT_FLAG_TWOSIDED = 1u;
 BASALT_CONST uint MAX_INFINITE_LIGHTS = 4u;
+// Light selection (Globals.light_opts.x; docs/path-spec.md 6): by the light cdf alone, or with
+// the bounded lights re-picked by their importance at the shading point (6.1).
+BASALT_CONST uint LIGHT_SELECT_CDF = 0u;
+BASALT_CONST uint LIGHT_SELECT_IMPORTANCE = 1u;
+// "bvh" picks by importance when at most this many bounded lights have power (6.1).
+BASALT_CONST uint LIGHT_IMPORTANCE_MAX_BVH = 16u;
+// Cap on one light's importance, so that a sum over lights stays finite (6.1).
+BASALT_CONST float LIGHT_IMPORTANCE_CAP = 1e30f;
 
 // ---- shape flags -----------------------------------------------------------------------
 // FLIP_NORMAL: flip the geometric normal (pbrt-v4: ReverseOrientation xor the transform
@@ -401,6 +410,8 @@ struct Globals {
   uvec4 render_opts;       // x: roulette (0: pbrt-v4's; see ROULETTE_OFF), y: MIS_*, z, w: unused
   uvec4 sampler_opts;      // x: SAMPLER_*, y: RAND_* (stratified: jitter 1/0), z, w: n0, n1
   uvec4 sampler_params;    // type-specific (docs/sampler-spec.md 3)
+  uvec4 light_opts;        // x: LIGHT_SELECT_*, y: float bits of the bounded lights' total pmf
+                           // (1 - p_inf, path-spec 6.1), z, w: unused
 };
 
 /// BVH node: interior when b == 0 (children at a and a+1), else leaf over prim_refs[a, a+b).
@@ -485,6 +496,10 @@ struct Light {
   uvec4 data;  // LIGHT_INFINITE_IMAGE: x = MipLevel of the image (level 0), y = offset in
                // tex_data of its sampling distribution, z = of the MIS-compensated one
   mat4 light_from_world;  // LIGHT_INFINITE_IMAGE: rotation into the light's frame
+  // Bounds for importance (docs/path-spec.md 6.1; pbrt-v4 LightBounds) of a bounded light:
+  vec4 bound_c;  // xyz: centre of its box, w: phi (0: never picked by importance)
+  vec4 bound_w;  // xyz: unit axis of its emission cone, w: cos(theta_o)
+  vec4 bound_e;  // x: half the box's diagonal, y: cos(theta_e), z, w: unused
 };
 
 /// Texture instruction (docs/textures-spec.md section 2).
@@ -626,7 +641,7 @@ struct TraceHit {
 #ifdef __cplusplus
 static_assert(sizeof(TraceRay) == 32 && sizeof(TraceHit) == 16, "Trace layout");
 static_assert(sizeof(ProbeIn) == 96 && sizeof(ProbeOut) == 80, "Probe layout");
-static_assert(sizeof(Globals) == 64 + 4 * 16 + 4 * 16 + 6 * 16 + 64 + 3 * 16, "Globals layout");
+static_assert(sizeof(Globals) == 64 + 4 * 16 + 4 * 16 + 6 * 16 + 64 + 4 * 16, "Globals layout");
 static_assert(sizeof(BvhNode) == 32 && offsetof(BvhNode, hi) == 16, "BvhNode layout");
 static_assert(sizeof(BvhWideNode) == 64 && offsetof(BvhWideNode, qlo) == 16, "BvhWideNode layout");
 static_assert(sizeof(Triangle) == 16, "Triangle layout");
@@ -634,8 +649,9 @@ static_assert(sizeof(Vertex) == 32, "Vertex layout");
 static_assert(sizeof(Mesh) == 16, "Mesh layout");
 static_assert(sizeof(Sphere) == 80 && offsetof(Sphere, material) == 64, "Sphere layout");
 static_assert(sizeof(Material) == 336 && offsetof(Material, texture) == 272, "Material layout");
-static_assert(sizeof(Light) == 160 && offsetof(Light, L) == 16 &&
-              offsetof(Light, light_from_world) == 96, "Light layout");
+static_assert(sizeof(Light) == 208 && offsetof(Light, L) == 16 &&
+              offsetof(Light, light_from_world) == 96 && offsetof(Light, bound_c) == 160,
+              "Light layout");
 static_assert(sizeof(Texture) == 192 && offsetof(Texture, param) == 32 &&
               offsetof(Texture, xform) == 128, "Texture layout");
 static_assert(sizeof(MipLevel) == 16, "MipLevel layout");
