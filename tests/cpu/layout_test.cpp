@@ -8,7 +8,8 @@
 using namespace basalt::gpu;
 
 TEST(Layout, SizesAndOffsets) {
-  EXPECT_EQ(sizeof(Globals), 400u);
+  EXPECT_EQ(sizeof(Globals), 416u);
+  EXPECT_EQ(offsetof(Globals, light_opts), 400u);
   EXPECT_EQ(offsetof(Globals, sampler_opts), 368u);
   EXPECT_EQ(offsetof(Globals, sampler_params), 384u);
   EXPECT_EQ(offsetof(Globals, render_opts), 352u);
@@ -41,7 +42,10 @@ TEST(Layout, SizesAndOffsets) {
   EXPECT_EQ(sizeof(Material), 336u);
   EXPECT_EQ(offsetof(Material, value), 16u);
   EXPECT_EQ(offsetof(Material, texture), 272u);
-  EXPECT_EQ(sizeof(Light), 160u);
+  EXPECT_EQ(sizeof(Light), 208u);
+  EXPECT_EQ(offsetof(Light, bound_c), 160u);
+  EXPECT_EQ(offsetof(Light, bound_w), 176u);
+  EXPECT_EQ(offsetof(Light, bound_e), 192u);
   EXPECT_EQ(offsetof(Light, data), 80u);
   EXPECT_EQ(offsetof(Light, light_from_world), 96u);
   EXPECT_EQ(offsetof(Light, pmf), 12u);
