@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "common/lights_scene.h"
 #include "common/test_util.h"
 #include "cpu/lights.h"
 #include "scene/tables.h"
@@ -20,30 +21,6 @@ namespace basalt::test {
 namespace {
 
 constexpr float kPi = std::numbers::pi_v<float>;
-
-/// A floor at y = 0 lit by a point light, a spot light (cone 30 degrees, delta 5) pointing
-/// down, a one-sided quad light facing down, a small emitting sphere and a distant light.
-std::string lights_scene(int spp) {
-  return scene_head("0 3 -6  0 0.5 0  0 1 0", 50, 40, 32, spp, 5) + R"(
-LightSource "point" "rgb I" [ 2 2 2 ] "point3 from" [ 0 4 0 ]
-LightSource "spot" "rgb I" [ 30 30 30 ] "point3 from" [ 2 4 0 ] "point3 to" [ 2 0 0 ]
-  "float coneangle" 30 "float conedelta" 5
-LightSource "distant" "rgb L" [ 0.2 0.2 0.25 ] "point3 from" [ 1 3 -2 ] "point3 to" [ 0 0 0 ]
-AttributeBegin
-  AreaLightSource "diffuse" "rgb L" [ 4 4 4 ]
-  Shape "trianglemesh" "integer indices" [ 0 1 2  0 2 3 ]
-    "point3 P" [ -2.5 2 -0.5  -1.5 2 -0.5  -1.5 2 0.5  -2.5 2 0.5 ]
-AttributeEnd
-AttributeBegin
-  Translate 1 0.6 1.5
-  AreaLightSource "diffuse" "rgb L" [ 6 3 2 ]
-  Shape "sphere" "float radius" 0.1
-AttributeEnd
-Material "diffuse" "rgb reflectance" [ 0.6 0.6 0.6 ]
-Shape "trianglemesh" "integer indices" [ 0 1 2  0 2 3 ]
-  "point3 P" [ -6 0 -6  6 0 -6  6 0 6  -6 0 6 ]
-)";
-}
 
 /// Index of the first light of tag \p type.
 std::uint32_t light_of(const SceneTables& t, std::uint32_t type) {
