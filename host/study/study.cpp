@@ -65,7 +65,7 @@ const std::vector<Knob>& knobs() {
       {"sampler", "--sampler",
        {"independent", "stratified", "halton", "paddedsobol", "zsobol", "sobol", "pmj02bn"},
        "scene", "image"},
-      {"light-sampler", "--light-sampler", {"power", "uniform"}, "scene", "image"},
+      {"light-sampler", "--light-sampler", {"exhaustive", "power", "uniform"}, "scene", "image"},
       {"pipeline", "--pipeline", {"all"}, "specialised", "time"},
       {"bvh-bins", "--bvh-bins", {"4", "16"}, "32", "time"},
       {"bvh-leaf", "--bvh-leaf", {"2", "16"}, "8", "time"},
