@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 namespace basalt::cpu {
@@ -113,9 +114,13 @@ struct RayBox {
   glm::vec3 d;
   glm::vec3 inv;  // 1 / d with |d| < 1e-20 replaced by copysign(1e-20, d) (spec section 3)
   RayTri tri;
+  bool parallel[3];           // |d| < 1e-20 along the axis: the slab test's inside rule
+  bool any_parallel = false;
   explicit RayBox(const Ray& r) : o(r.o), d(r.d), tri(r.o, r.d) {
     for (int i = 0; i < 3; ++i) {
-      const float di = std::fabs(r.d[i]) < 1e-20f ? std::copysign(1e-20f, r.d[i]) : r.d[i];
+      parallel[i] = std::fabs(r.d[i]) < 1e-20f;
+      any_parallel = any_parallel || parallel[i];
+      const float di = parallel[i] ? std::copysign(1e-20f, r.d[i]) : r.d[i];
       inv[i] = 1.0f / di;
     }
   }
@@ -134,13 +139,22 @@ inline PrimHit prim_hit(const SceneTables& s, std::uint32_t ref, const RayBox& r
 
 /// Slab test (Kay & Kajiya 1986; pbrt-v4 6.1.2 with tFar scaled by 1 + 2 gamma(3)).
 /// Inclusive at tlimit so that equal-t candidates survive for the tie break, and inclusive at an
-/// exit distance of 0 (as pbrt-v4's t0 > t1 test and the shader's enter <= exit): a ray lying
-/// in the plane of a box face, whose zero direction component's sign makes it leave at t = 0,
-/// still meets the primitives on that face.
+/// exit distance of 0 (as pbrt-v4's t0 > t1 test and the shader's enter <= exit). An axis the
+/// ray runs parallel to (|d| < 1e-20) bounds nothing when the origin lies in the slab, faces
+/// included, and misses the box otherwise (spec section 3): with the finite 1e-20 stand-in, a
+/// ray lying in a face plane would leave the slab at t = 0 and miss the primitives on that
+/// face ahead of it (pbrt-v4's 0 * inf = NaN drops the axis instead).
 inline bool slab(const gpu::BvhNode& n, const RayBox& rb, float tlimit, float& tnear) {
   const glm::vec3 ta = (n.lo - rb.o) * rb.inv;
   const glm::vec3 tb = (n.hi - rb.o) * rb.inv;
-  const glm::vec3 tmin = glm::min(ta, tb), tmax = glm::max(ta, tb);
+  glm::vec3 tmin = glm::min(ta, tb), tmax = glm::max(ta, tb);
+  if (rb.any_parallel)
+    for (int i = 0; i < 3; ++i) {
+      if (!rb.parallel[i]) continue;
+      if (!(rb.o[i] >= n.lo[i] && rb.o[i] <= n.hi[i])) return false;
+      tmin[i] = -std::numeric_limits<float>::infinity();
+      tmax[i] = std::numeric_limits<float>::infinity();
+    }
   const float t0 = std::max(tmin.x, std::max(tmin.y, tmin.z));
   const float t1 = std::min(tmax.x, std::min(tmax.y, tmax.z)) * SLAB_FAR_SCALE;
   tnear = t0;

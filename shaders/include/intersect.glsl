@@ -149,12 +149,19 @@ float intersect_prim(Ray ray, RayTri rt, uint ref, out vec2 b12) {
 }
 
 // Slab test of pbrt-v4 6.1.2 Bounds3::IntersectP with a precomputed inverse direction on the
-// box lo, hi: the exit distance is scaled by 1 + 2 gamma(3); inv has no infinities (see
-// bvh_trace), so no 0 * inf. Accepts entry distances up to t_limit inclusive (closest-hit ties
-// are decided by prim reference). Returns the entry distance (>= 0), or -1 for a miss.
+// box lo, hi: the exit distance is scaled by 1 + 2 gamma(3). inv is +-inf on the axes the ray
+// runs parallel to (|d| < 1e-20, see bvh_trace) and finite on the others: a parallel axis gives
+// -inf .. +inf when o is inside the slab and an empty interval when outside, and 0 * inf = NaN
+// when o lies on a face plane, which counts as inside (docs/path-spec.md 3: faces included, so a
+// ray lying in a face plane meets the primitives on that face ahead of it). Accepts entry
+// distances up to t_limit inclusive (closest-hit ties are decided by prim reference). Returns
+// the entry distance (>= 0), or -1 for a miss.
 float slab_test(vec3 lo, vec3 hi, vec3 o, vec3 inv, bvec3 neg, float t_limit) {
+  const float INF = uintBitsToFloat(0x7f800000u);
   vec3 tn = (mix(lo, hi, neg) - o) * inv;
   vec3 tf = (mix(hi, lo, neg) - o) * inv * SLAB_EXIT_SCALE;
+  tn = mix(tn, vec3(-INF), isnan(tn));
+  tf = mix(tf, vec3(INF), isnan(tf));
   float enter = max(max(tn.x, tn.y), max(tn.z, 0.0));
   float exit = min(min(tf.x, tf.y), min(tf.z, t_limit));
   return enter <= exit ? enter : -1.0;
@@ -192,11 +199,13 @@ float bvh_child_test(uvec4 w0, uvec4 qlo, uvec4 qhi, uint child, uint c, vec3 o,
 // returns at the first hit in (0, tmax) (shadow rays).
 Hit bvh_trace(Ray ray, bool any_hit) {
   Hit best = Hit(ray.tmax, 0.0, 0.0, INVALID_INDEX);
-  // pbrt-v4 6.1.2: |d| < 1e-20 becomes copysign(1e-20, d) so that inv stays finite.
-  vec3 dd = vec3(abs(ray.d.x) < 1e-20 ? copysign_pos(1e-20, ray.d.x) : ray.d.x,
-                 abs(ray.d.y) < 1e-20 ? copysign_pos(1e-20, ray.d.y) : ray.d.y,
-                 abs(ray.d.z) < 1e-20 ? copysign_pos(1e-20, ray.d.z) : ray.d.z);
-  vec3 inv = 1.0 / dd;
+  // An axis with |d| < 1e-20 is one the ray runs parallel to: its inverse is +-inf (the sign of
+  // d), which slab_test reads as "bounds nothing inside the slab, misses outside"; the other
+  // axes' inverses are finite.
+  const float INF = uintBitsToFloat(0x7f800000u);
+  vec3 inv = mix(1.0 / ray.d,
+                 vec3(copysign_pos(INF, ray.d.x), copysign_pos(INF, ray.d.y), copysign_pos(INF, ray.d.z)),
+                 lessThan(abs(ray.d), vec3(1e-20)));
   bvec3 neg = lessThan(inv, vec3(0.0));
   RayTri rt = ray_tri(ray);
   uint stack_item[BVH_WIDE_STACK];

@@ -11,6 +11,7 @@
 #include "cpu/cpu.h"
 #include "cpu/lights.h"
 #include "cpu/sampling.h"
+#include "common/axis_rays.h"
 #include "cpu_test_scene.h"
 
 using namespace basalt;
@@ -372,6 +373,25 @@ TEST(CpuIntersect, ClosestMatchesBruteForceAndTieBreak) {
     ASSERT_TRUE(h.valid());
     EXPECT_EQ(h.prim, 0u);
     EXPECT_NEAR(h.t, 2.0f, 1e-6f);
+  }
+}
+
+// Rays along an axis (a direction component of +-0 or below 1e-20) whose origin lies in a face
+// plane of the box ahead: the axis bounds nothing while the origin is in the slab, faces
+// included (path-spec 3). With 1 / d's finite stand-in alone they left the slab at t = 0 and
+// missed the vertex on that face (found by Stress.Closest). One triangle: its box is the BVH's.
+TEST(CpuIntersect, AxisRaysInAFacePlaneMeetThePrimitivesAhead) {
+  TestScene s;
+  s.mesh(basalt::test::axis_ray_triangle(), {glm::uvec3(0, 1, 2)}, s.diffuse(glm::vec3(0.5f)));
+  s.finish(1);
+  for (const auto& c : basalt::test::axis_ray_cases()) {
+    const Hit h = intersect_closest(s.t, Ray{c.o, c.d, FLT_MAX});
+    EXPECT_EQ(h.valid(), c.hit) << c.o.x << " " << c.o.y << " " << c.o.z;
+    if (c.hit) {
+      EXPECT_EQ(h.t, 5.0f);
+    }
+    EXPECT_EQ(intersect_any(s.t, Ray{c.o, c.d, 6.0f}), c.hit);
+    EXPECT_FALSE(intersect_any(s.t, Ray{c.o, c.d, 4.0f}));  // ends before the triangle
   }
 }
 

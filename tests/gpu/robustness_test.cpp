@@ -11,6 +11,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "common/axis_rays.h"
 #include "common/test_util.h"
 
 namespace basalt::test {
@@ -250,6 +251,36 @@ TEST_P(Robustness, GrazingRays) {
   // Straight down onto the sphere's pole: t = 50 - 6 = 44.
   EXPECT_NEAR(out[analytic + 3].f0.x, 44.0f, 1e-4f);
   EXPECT_EQ(out[analytic + 3].u.x, gpu::PRIM_SPHERE_BIT | 0u);
+}
+
+// Rays along an axis (a direction component of +0, -0 or below 1e-20) whose origin lies in a
+// face plane of the box ahead (docs/path-spec.md 3: such an axis bounds nothing when the origin
+// is in the slab, faces included): the finite stand-in for 1 / 0 made them leave the slab at
+// t = 0, so both sides missed the vertex on that face (Stress.Closest found the CPU and the
+// GPU's wide boxes disagreeing on them). One triangle, so the box faces are its extremes.
+TEST_P(Robustness, AxisRaysInAFacePlaneMeetThePrimitivesAhead) {
+  Scene s = one_material_scene();
+  add_mesh(s, axis_ray_triangle(), {0, 1, 2});
+  SceneTables t = build_tables(s);
+  const std::vector<AxisRayCase> cases = axis_ray_cases();
+  std::vector<gpu::ProbeIn> q;
+  for (const AxisRayCase& c : cases) {
+    q.push_back(query(gpu::PROBE_CLOSEST, c.o, c.d));
+    q.push_back(query(gpu::PROBE_OCCLUDED, c.o, c.d, 6.0f));
+    q.push_back(query(gpu::PROBE_OCCLUDED, c.o, c.d, 4.0f));  // ends before the triangle
+  }
+  auto out = probe(GetParam(), t, q);
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    const gpu::ProbeOut& closest = out[3 * i];
+    if (cases[i].hit) {
+      EXPECT_EQ(closest.u.x, 0u) << "case " << i;
+      EXPECT_EQ(closest.f0.x, 5.0f) << "case " << i;
+    } else {
+      EXPECT_EQ(closest.u.x, gpu::INVALID_INDEX) << "case " << i;
+    }
+    EXPECT_EQ(out[3 * i + 1].u.x, cases[i].hit ? 1u : 0u) << "case " << i;
+    EXPECT_EQ(out[3 * i + 2].u.x, 0u) << "case " << i;
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(BothSides, Robustness, ::testing::Values(Side::Cpu, Side::Gpu),
