@@ -10,7 +10,9 @@
 // the `basalt` command cold and warm (pipeline/<scene>/{cold,warm}); the time to pbrt-v4's
 // error against pbrt-v4's time, and peak memory against the tables (equal-error/..., memory/...:
 // tests/bench/anchors.cpp). Rows that measure an issue 12 target carry it (target_s,
-// target_vs_pbrt, target, or vs_cpu >= 1 on gpu/<scene>) beside the figure.
+// target_vs_pbrt, target, or vs_cpu >= 1 on gpu/<scene>) beside the figure, and a table at
+// the end lists every target row the run measured with its anchor, ratio and whether it is met
+// (tests/bench/targets.h).
 // Run: `cmake --build build --target bench` (5 repetitions, medians reported).
 #include <benchmark/benchmark.h>
 
@@ -19,6 +21,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <iterator>
 #include <map>
 #include <memory>
@@ -28,6 +31,7 @@
 
 #include "bench/anchors.h"
 #include "bench/rays.h"
+#include "bench/targets.h"
 #include "cpu/render.h"
 #include "scene/scene.h"
 #include "scene/tables.h"
@@ -421,9 +425,36 @@ int main(int argc, char** argv) {
   // Measure compiles, not the on-disk caches.
   setenv("MESA_SHADER_CACHE_DISABLE", "true", 1);
   setenv("BASALT_CACHE_DIR", "off", 1);  // and not basalt's cache of specialised SPIR-V
+  // The display the flags ask for (console or json), wrapped by the reporter that keeps
+  // the figures of the issue 12 targets table printed at the end.
+  std::string format = "console";
+  bool tabular = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a.rfind("--benchmark_format=", 0) == 0) format = a.substr(19);
+    if (a == "--benchmark_counters_tabular" || a == "--benchmark_counters_tabular=true")
+      tabular = true;
+  }
   benchmark::Initialize(&argc, argv);
+  std::unique_ptr<benchmark::BenchmarkReporter> display;
+  if (format == "json") {
+    display = std::make_unique<benchmark::JSONReporter>();
+  } else {
+    if (format != "console")
+      std::cerr << "basalt_bench: --benchmark_format=" << format
+                << " is not supported here (console or json); showing the console format\n";
+    int opts = ::isatty(STDOUT_FILENO) ? benchmark::ConsoleReporter::OO_Color
+                                       : benchmark::ConsoleReporter::OO_None;
+    if (tabular) opts |= benchmark::ConsoleReporter::OO_Tabular;
+    display = std::make_unique<benchmark::ConsoleReporter>(
+        benchmark::ConsoleReporter::OutputOptions(opts));
+  }
   register_all();
-  benchmark::RunSpecifiedBenchmarks();
+  basalt::bench::TargetsReporter reporter(std::move(display));
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  // After a json display the table goes to stderr, keeping stdout parseable.
+  basalt::bench::print_targets(basalt::bench::target_rows(reporter.figures()),
+                               format == "console" ? std::cout : std::cerr);
   benchmark::Shutdown();
   basalt::bench::release_rays();
   g_context.reset();
