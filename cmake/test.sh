@@ -5,9 +5,10 @@
 #  2. build-san/ (clang, ASan + UBSan with float-cast-overflow, -DBASALT_SANITIZE=ON): the CPU
 #     suite and the fuzz regression inputs, less four convergence studies (thousands of
 #     renders through code the rest of the suite covers: 5 of the 9 sanitized minutes);
-#  3. a short libFuzzer pass over each harness (tools/fuzz.sh with BASALT_FUZZ_RUNS=20000
-#     inputs each from seed 1: about 2 minutes in all, the same inputs on every run), its
-#     crashes failing the run. Longer, timed runs that look for new finds: tools/fuzz.sh 600.
+#  3. a short libFuzzer pass over each harness (tools/fuzz.sh with BASALT_FUZZ_RUNS inputs from
+#     seed 1, the same inputs on every run: 20000 for the scene and PLY harnesses, a few
+#     seconds each, and 5000 for the image readers, whose 20000 took 6 minutes on a 2-core
+#     machine), its crashes failing the run. Longer, timed runs that look for new finds: tools/fuzz.sh 600.
 # Slow and stress tests: ctest --test-dir build -L slow (or -L stress; docs/hard-cases.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -20,4 +21,5 @@ cmake --build build-san -j"$(nproc)"
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   ctest --test-dir build-san --output-on-failure -j2 -LE 'slow|stress' \
   -E '^(PathKnobs\.|Sampler\.LowDiscrepancySamplersConverge|LayeredReference\.AnalogWalk)'
-BASALT_FUZZ_RUNS=${BASALT_FUZZ_RUNS:-20000} bash tools/fuzz.sh
+BASALT_FUZZ_RUNS=${BASALT_FUZZ_RUNS:-20000} bash tools/fuzz.sh 0 scene ply
+BASALT_FUZZ_RUNS=${BASALT_FUZZ_RUNS_IMAGE:-5000} bash tools/fuzz.sh 0 image
