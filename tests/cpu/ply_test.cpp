@@ -10,6 +10,8 @@
 #include <fstream>
 #include <string>
 
+#include <unistd.h>
+
 #include "scene/scene.h"
 
 namespace fs = std::filesystem;
@@ -19,9 +21,15 @@ using basalt::TriangleMesh;
 
 namespace {
 
-// Writes bytes to a fresh file under the test temp dir and returns its path.
+// This process's directory under the test temp dir: ctest runs tests in parallel processes,
+// and two of them writing the same file name in one directory read each other's bytes.
+fs::path ply_dir() {
+  return fs::path(::testing::TempDir()) / ("basalt_ply_" + std::to_string(::getpid()));
+}
+
+// Writes bytes to a fresh file under ply_dir() and returns its path.
 std::string write_temp(const std::string& name, const std::string& bytes) {
-  fs::path d = fs::path(::testing::TempDir()) / "basalt_ply";
+  fs::path d = ply_dir();
   fs::create_directories(d);
   fs::path p = d / name;
   std::ofstream(p, std::ios::binary) << bytes;
@@ -147,9 +155,9 @@ TEST(Ply, ErrorsNameTheFile) {
                  "property float z\nelement face 1\nproperty list uchar uint vertex_indices\n"
                  "end_header\n0 0 0 1 0 0 0 1 0 3 0 1 3\n");
   EXPECT_EQ(error_of(p), p + ": error: vertex index 3 out of range (the file has 3 vertices)");
-  p = (fs::path(::testing::TempDir()) / "basalt_ply" / "absent.ply").string();
+  p = (ply_dir() / "absent.ply").string();
   EXPECT_EQ(error_of(p), p + ": error: cannot read PLY file: No such file or directory");
-  p = (fs::path(::testing::TempDir()) / "basalt_ply").string();
+  p = ply_dir().string();
   EXPECT_EQ(error_of(p), p + ": error: cannot read PLY file: is a directory");
 }
 
