@@ -192,9 +192,18 @@ int run(const Options& opt) {
     st.device = ctx->info().name;
     st.driver = ctx->info().driver;
     // --pipeline all: every feature's code compiled in (a time-only knob: same image).
+    // --pipeline wavefront: the wavefront stages instead of the megakernel (same expectation).
     basalt::vkx::GpuRenderer gpu =
         opt.pipeline == "all"
             ? basalt::vkx::GpuRenderer(*ctx, tables, 0xffffffffu, basalt::vkx::ShaderVariant::full)
+        : opt.pipeline == "wavefront"
+            ? basalt::vkx::GpuRenderer(*ctx, tables, tables.features,
+                                       basalt::vkx::ShaderVariant::wavefront)
+        : opt.pipeline == "megakernel"
+            ? basalt::vkx::GpuRenderer(*ctx, tables, tables.features,
+                                       basalt::vkx::GpuRenderer::lean_suffices(tables.features)
+                                           ? basalt::vkx::ShaderVariant::lean
+                                           : basalt::vkx::ShaderVariant::full)
             : basalt::vkx::GpuRenderer(*ctx, tables);
     st.seconds_upload = gpu.seconds_upload;
     st.seconds_pipeline = gpu.seconds_pipeline;
@@ -328,9 +337,12 @@ int main(int argc, char** argv) {
        "exhaustive, power or uniform",
        {"scene", "bvh", "exhaustive", "power", "uniform"}},
       {"--pipeline", &opt.pipeline,
-       "GPU pipeline: specialised to the scene's features (default) or all (every feature compiled "
-       "in; same image, for timing)",
-       {"specialised", "all"}},
+       "GPU pipeline, specialised to the scene's features: specialised (the default: the lean "
+       "megakernel for diffuse-only scenes, else the wavefront), megakernel (one shader for the "
+       "whole path), wavefront (an extend stage and shading pipelines by material type; the "
+       "same image up to the order of its sums), or all (the megakernel with every feature "
+       "compiled in; same image, for timing)",
+       {"specialised", "megakernel", "wavefront", "all"}},
       {"--layered-mis", &opt.layered_mis,
        "coated materials' MIS weights: basalt (default, unbiased) or pbrt-v4 (reproduces pbrt-v4's "
        "images; docs/materials-spec.md 2.3)",

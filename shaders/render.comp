@@ -3,12 +3,11 @@
 // sample_count) of one pixel and adds (sum L, count) to accum (docs/path-spec.md sections 7
 // and 9), and counts the rays it traced in counters[0].
 //
-// Pixel order (docs/path-spec.md section 9): invocation slot i = pixel_offset + global id
-// covers lane i % 64 of tile i / 64; tiles are 8x8 pixel blocks, shuffled as
-// tile' = (tile * pixel_stride) % ntiles with ntiles = pixel_total / 64 (pixel_total is the
-// tile-padded slot count) and the stride coprime with ntiles, so that the 64 invocations of a
-// workgroup trace neighbouring pixels (coherent) while consecutive workgroups land all over
-// the image (balanced). Slots of the padding past the image edge return.
+// Pixel order (docs/path-spec.md section 9, slot_pixel in camera.glsl): invocation slot
+// i = pixel_offset + global id covers lane i % 64 of an 8x8 pixel tile, the tiles shuffled
+// with a stride coprime with their count, so that the 64 invocations of a workgroup trace
+// neighbouring pixels (coherent) while consecutive workgroups land all over the image
+// (balanced). Slots of the padding past the image edge return.
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
@@ -24,18 +23,11 @@ layout(push_constant) uniform Pass {
 
 void main() {
   if (gl_GlobalInvocationID.x >= pc.pixel_count) return;
-  uint i = pc.pixel_offset + gl_GlobalInvocationID.x;
-  uint tile = i / 64u;
-  uint lane = i % 64u;
-  uint ntiles = pc.pixel_total / 64u;
-  // The host guarantees (ntiles - 1) * pixel_stride < 2^32: the 32-bit product cannot wrap.
-  uint shuffled = (tile * pc.pixel_stride) % ntiles;
+  uint px, py;
+  if (!slot_pixel(pc.pixel_offset + gl_GlobalInvocationID.x, pc.pixel_stride, pc.pixel_total,
+                  px, py))
+    return;
   uint width = globals.image.x;
-  uint height = globals.image.y;
-  uint tiles_x = (width + 7u) / 8u;
-  uint px = (shuffled % tiles_x) * 8u + lane % 8u;
-  uint py = (shuffled / tiles_x) * 8u + lane / 8u;
-  if (px >= width || py >= height) return;
   vec4 sum = vec4(0.0);
   uint rays = 0u, nonfinite = 0u;
   for (uint s = pc.sample_start; s < pc.sample_start + pc.sample_count; ++s) {

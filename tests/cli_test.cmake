@@ -72,7 +72,9 @@ foreach(device lavapipe cpu)
   endif()
 endforeach()
 
-# A scene with a conductor needs the full material set: shader_variant "full".
+# A scene with a conductor needs more than the lean megakernel: by default it renders through
+# the wavefront stages (shader_variant "wavefront"), with --pipeline megakernel through the full
+# megakernel ("full").
 file(READ ${WORK}/good.pbrt good_text)
 string(REPLACE [=[Material "diffuse" "rgb reflectance" [ 0.5 0.5 0.5 ]]=]
                [=[Material "conductor" "float roughness" [ 0.2 ]]=] metal_text "${good_text}")
@@ -85,8 +87,21 @@ if(NOT rc EQUAL 0)
 else()
   file(READ ${WORK}/stats-metal.json json)
   string(JSON variant ERROR_VARIABLE jerr GET "${json}" shader_variant)
+  if(NOT variant STREQUAL "wavefront")
+    fail("conductor scene: shader_variant '${variant}' (${jerr}), expected wavefront")
+  endif()
+endif()
+execute_process(COMMAND ${BASALT} ${WORK}/metal.pbrt --device lavapipe --spp 1 --quiet
+                        --pipeline megakernel -o ${WORK}/metal.exr --stats ${WORK}/stats-metal.json
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  fail("conductor scene, --pipeline megakernel: exit ${rc}: ${err}")
+else()
+  file(READ ${WORK}/stats-metal.json json)
+  string(JSON variant ERROR_VARIABLE jerr GET "${json}" shader_variant)
   if(NOT variant STREQUAL "full")
-    fail("conductor scene: shader_variant '${variant}' (${jerr}), expected full")
+    fail("conductor scene, --pipeline megakernel: shader_variant '${variant}' (${jerr}), "
+         "expected full")
   endif()
 endif()
 

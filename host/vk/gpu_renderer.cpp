@@ -12,12 +12,14 @@
 #include <string>
 
 #include "accel/bvh.h"
+#include "scene/materials.h"
 #include "scene/samplers.h"
 #include "vk/specialise.h"
 #include "shaders/probe.spv.h"
 #include "shaders/render.spv.h"
 #include "shaders/render_lean.spv.h"
 #include "shaders/trace.spv.h"
+#include "shaders/wavefront.spv.h"
 
 namespace basalt::vkx {
 
@@ -128,6 +130,25 @@ const TexelView* texel_view_of(std::uint32_t b) {
   return nullptr;
 }
 
+/// Every FEATURE_MAT_* bit.
+std::uint32_t material_bits() {
+  std::uint32_t bits = 0;
+  for (std::uint32_t t = 0; t < gpu::MATERIAL_TYPE_COUNT; ++t) bits |= material_feature(t);
+  return bits;
+}
+
+/// The wavefront's shade pipeline of MATERIAL_* \p type (docs/performance.md): 1 for the
+/// layered materials (their random walks are most of the shading code), 2 for the mixes (whose
+/// choice may land on any material of the scene), 0 for the others. A pipeline per group,
+/// not per type, keeps the number of pipelines (lavapipe's fixed cost of each) at four; the
+/// queues stay per type, so the lanes of a dispatch still run one material's code.
+std::uint32_t wf_group(std::uint32_t type) {
+  if (type == gpu::MATERIAL_COATED_DIFFUSE || type == gpu::MATERIAL_COATED_CONDUCTOR) return 1;
+  if (type == gpu::MATERIAL_MIX || type == gpu::MATERIAL_MIX_WEIGHTED) return 2;
+  return 0;
+}
+constexpr std::uint32_t kWfGroups = 3;
+
 }  // namespace
 
 bool GpuRenderer::lean_suffices(std::uint32_t features) {
@@ -140,8 +161,14 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   if (which == ShaderVariant::lean && !lean_suffices(features))
     throw std::invalid_argument("the lean render shader cannot render feature bits " +
                                 std::to_string(features));
-  const bool lean = which != ShaderVariant::full && lean_suffices(features);
-  variant = lean ? "lean" : "full";
+  // automatic: the lean megakernel where it suffices (diffuse materials only), else the
+  // wavefront stages, which render scenes of other materials 1.4-2.9x faster on lavapipe
+  // (docs/performance.md); the all-features pipeline stays one megakernel.
+  const bool wavefront =
+      which == ShaderVariant::wavefront ||
+      (which == ShaderVariant::automatic && !lean_suffices(features) && features != 0xffffffffu);
+  const bool lean = !wavefront && which != ShaderVariant::full && lean_suffices(features);
+  variant = wavefront ? "wavefront" : lean ? "lean" : "full";
   // Invocations cover 8x8 pixel tiles (one workgroup each): slots_ is the tile-padded count.
   const std::uint32_t tiles = ((width_ + 7) / 8) * ((height_ + 7) / 8);
   slots_ = tiles * 64;
@@ -235,6 +262,33 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   // The second feature word follows the first: the scene's own when the scene's features are
   // asked for, everything when a caller forces another set (the all-features comparison).
   const std::uint32_t features2 = features == t.features ? t.features2 : 0xffffffffu;
+  if (wavefront) {
+    // Paths and lists of one wave (layout.h, WF_*), the stages' pipelines: extend, and shade
+    // for each material type of the scene (and MATERIAL_NONE, for shapes without one).
+    wf_capacity_ = std::min(wavefront_capacity, slots_);
+    const auto usage = vk::BufferUsageFlagBits::eStorageBuffer;
+    wf_paths_ = ctx_.create_buffer(std::size_t(wf_capacity_) * gpu::WF_PATH_VEC4S * 16, usage);
+    wf_lists_ = ctx_.create_buffer(
+        (gpu::WF_COUNTERS + std::size_t(gpu::WF_LISTS) * wf_capacity_) * 4, usage);
+    device_bytes += wf_paths_.size + wf_lists_.size;
+    wf_bindings_ = bindings;
+    wf_bindings_.push_back({BINDING_PROBE_IN, &wf_paths_});
+    wf_bindings_.push_back({BINDING_PROBE_OUT, &wf_lists_});
+    wf_features_ = features;
+    wf_features2_ = features2;
+    wf_extend_ = make_pipeline(wavefront_spv, sizeof(wavefront_spv), features, features2,
+                               wf_bindings_, 0u);
+    wf_shade_.resize(kWfGroups);
+    dispatch(wf_extend_, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
+    std::vector<bool> present(gpu::MATERIAL_TYPE_COUNT, false);
+    present[gpu::MATERIAL_NONE] = true;
+    for (const gpu::Material& m : t.materials)
+      if (m.type < gpu::MATERIAL_TYPE_COUNT) present[m.type] = true;
+    for (std::uint32_t type = 0; type < gpu::MATERIAL_TYPE_COUNT; ++type)
+      if (present[type]) wf_shade(type);
+    seconds_pipeline = since(t0);
+    return;
+  }
   render_ = lean ? make_pipeline(render_lean_spv, sizeof(render_lean_spv), features, features2,
                                  bindings)
                  : make_pipeline(render_spv, sizeof(render_spv), features, features2, bindings);
@@ -248,13 +302,20 @@ GpuRenderer::~GpuRenderer() {
   destroy_pipeline(render_);
   destroy_stage(probe_);
   destroy_stage(trace_);
+  destroy_pipeline(wf_extend_);
+  for (Pipeline& p : wf_shade_) destroy_pipeline(p);
+  if (wf_capacity_) {
+    ctx_.destroy_buffer(wf_paths_);
+    ctx_.destroy_buffer(wf_lists_);
+  }
   for (auto& v : views_) ctx_.device.destroyBufferView(v);
   for (auto& b : tables_) ctx_.destroy_buffer(b);
 }
 
 GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std::size_t bytes,
                                                  std::uint32_t features, std::uint32_t features2,
-                                                 const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings) {
+                                                 const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings,
+                                                 std::uint32_t wf_stage) {
   auto& dev = ctx_.device;
   Pipeline p;
   std::vector<vk::DescriptorSetLayoutBinding> layout_bindings;
@@ -280,30 +341,30 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
   // A pipeline for a scene's features gets SPIR-V without the code they rule out (specialise.h:
   // on lavapipe 0.55 -> 0.09 s warm for the Cornell box, kept in basalt's per-user cache); the
   // all-features one is used as given.
+  // Constant 0: FEATURES (the scene's feature word); constant 1: FEATURES2 (the second word,
+  // the texture families of layout.h); constant 2: LEAF_PRIMS; constant 3: TEXEL_TABLES
+  // (bindings.glsl); constant 4, for the wavefront stages only: WF_STAGE.
+  std::vector<std::uint32_t> words = {features, features2, leaf_prims ? 1u : 0u,
+                                      texel_tables ? 1u : 0u};
+  if (wf_stage != kNoStage) words.push_back(wf_stage);
   std::vector<std::uint32_t> specialised;
   if (features != 0xffffffffu || features2 != 0xffffffffu) {
     const auto t0 = Clock::now();
     bool hit = false;
-    specialised =
-        specialise_spirv_cached(spirv, bytes, {features, features2, leaf_prims ? 1u : 0u,
-                                               texel_tables ? 1u : 0u},
-                                hit);
+    specialised = specialise_spirv_cached(spirv, bytes, words, hit);
     seconds_specialise += since(t0);
     spirv = specialised.data();
     bytes = specialised.size() * sizeof(std::uint32_t);
   }
   vk::ShaderModule module = dev.createShaderModule({.codeSize = bytes, .pCode = spirv});
-  // Constant 0: FEATURES (the scene's feature word); constant 1: FEATURES2 (the second word,
-  // the texture families of layout.h); constant 2: LEAF_PRIMS; constant 3: TEXEL_TABLES
-  // (bindings.glsl).
-  const std::uint32_t words[4] = {features, features2, leaf_prims ? 1u : 0u,
-                                  texel_tables ? 1u : 0u};
-  vk::SpecializationMapEntry entries[4];
-  for (std::uint32_t k = 0; k < 4; ++k)
-    entries[k] = vk::SpecializationMapEntry{
-        .constantID = k, .offset = k * 4u, .size = sizeof(std::uint32_t)};
-  vk::SpecializationInfo spec{
-      .mapEntryCount = 4, .pMapEntries = entries, .dataSize = sizeof(words), .pData = words};
+  std::vector<vk::SpecializationMapEntry> entries;
+  for (std::uint32_t k = 0; k < words.size(); ++k)
+    entries.push_back(vk::SpecializationMapEntry{
+        .constantID = k, .offset = k * 4u, .size = sizeof(std::uint32_t)});
+  vk::SpecializationInfo spec{.mapEntryCount = std::uint32_t(entries.size()),
+                              .pMapEntries = entries.data(),
+                              .dataSize = words.size() * sizeof(std::uint32_t),
+                              .pData = words.data()};
   vk::ComputePipelineCreateInfo info{
       .stage = {.stage = vk::ShaderStageFlagBits::eCompute,
                 .module = module,
@@ -364,8 +425,100 @@ void GpuRenderer::dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint3
   counters[0] = counters[1] = 0;
 }
 
+GpuRenderer::Pipeline& GpuRenderer::wf_shade(std::uint32_t type) {
+  const std::uint32_t group = wf_group(type);
+  Pipeline& p = wf_shade_.at(group);
+  if (p.pipeline) return p;
+  // The scene's material bits of the group's types (a mix may resolve to any: all of them).
+  std::uint32_t f = wf_features_;
+  if (group != wf_group(gpu::MATERIAL_MIX)) {
+    std::uint32_t bits = 0;
+    for (std::uint32_t t = 0; t < gpu::MATERIAL_TYPE_COUNT; ++t)
+      if (wf_group(t) == group) bits |= material_feature(t);
+    f = (f & ~material_bits()) | (f & bits);
+  }
+  p = make_pipeline(wavefront_spv, sizeof(wavefront_spv), f, wf_features2_, wf_bindings_, 1u);
+  // lavapipe compiles at first dispatch (see the constructor's empty pass).
+  dispatch(p, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
+  return p;
+}
+
+void GpuRenderer::wf_wave(std::uint32_t s, std::uint32_t slot0, std::uint32_t n) {
+  auto* lists = static_cast<std::uint32_t*>(wf_lists_.mapped);
+  std::memset(lists, 0, gpu::WF_COUNTERS * sizeof(std::uint32_t));
+  // Each submission starts with a barrier: the previous one's writes (paths, lists, accum)
+  // are visible to this one's reads.
+  auto barrier = [](vk::CommandBuffer cmd) {
+    vk::MemoryBarrier mb{.srcAccessMask = vk::AccessFlagBits::eShaderWrite,
+                         .dstAccessMask =
+                             vk::AccessFlagBits::eShaderRead | vk::AccessFlagBits::eShaderWrite};
+    cmd.pipelineBarrier(vk::PipelineStageFlagBits::eComputeShader,
+                        vk::PipelineStageFlagBits::eComputeShader, {}, mb, {}, {});
+  };
+  auto run = [&](Pipeline& p, const gpu::PassConstants& pc, std::uint32_t invocations,
+                 vk::CommandBuffer cmd) {
+    cmd.bindPipeline(vk::PipelineBindPoint::eCompute, p.pipeline);
+    cmd.bindDescriptorSets(vk::PipelineBindPoint::eCompute, p.layout, 0, p.set, {});
+    cmd.pushConstants(p.layout, vk::ShaderStageFlagBits::eCompute, 0, sizeof(pc), &pc);
+    cmd.dispatch((invocations + 63) / 64, 1, 1);
+  };
+  // Iteration 0 starts the paths; a path crosses at most 64 interfaces besides its bounces.
+  std::uint32_t active = n;
+  for (std::uint32_t it = 0; active > 0 && it < 2 + globals_max_depth_ + 64; ++it) {
+    const std::uint32_t in_list = (it + 1) & 1u, out_list = it & 1u;
+    ctx_.submit_and_wait([&](vk::CommandBuffer cmd) {
+      barrier(cmd);
+      run(wf_extend_, gpu::PassConstants{s, it, slot0, active, stride_, slots_, in_list,
+                                         wf_capacity_},
+          active, cmd);
+    });
+    lists[out_list] = 0;
+    std::uint32_t queued[gpu::MATERIAL_TYPE_COUNT];
+    for (std::uint32_t type = 0; type < gpu::MATERIAL_TYPE_COUNT; ++type) {
+      queued[type] = lists[gpu::WF_LIST_QUEUE + type];
+      lists[gpu::WF_LIST_QUEUE + type] = 0;
+      if (queued[type]) wf_shade(type);
+    }
+    ctx_.submit_and_wait([&](vk::CommandBuffer cmd) {
+      barrier(cmd);
+      for (std::uint32_t type = 0; type < gpu::MATERIAL_TYPE_COUNT; ++type)
+        if (queued[type])
+          run(wf_shade(type),
+              gpu::PassConstants{s, it, slot0, queued[type], stride_, slots_,
+                                 (gpu::WF_LIST_QUEUE + type) | (out_list << 16), wf_capacity_},
+              queued[type], cmd);
+    });
+    active = lists[out_list];
+  }
+  if (active)
+    throw std::logic_error("GpuRenderer: a wavefront path outlived its depth and crossings");
+  auto* counters = static_cast<std::uint32_t*>(tables_[BINDING_COUNTERS].mapped);
+  rays_ += counters[0];
+  nonfinite_ += counters[1];
+  counters[0] = counters[1] = 0;
+}
+
 void GpuRenderer::render(std::uint32_t sample_start, std::uint32_t count,
                          const std::function<void(double)>& progress, double seconds_per_pass) {
+  if (wf_capacity_) {
+    {
+      gpu::Globals g;
+      std::memcpy(&g, tables_[BINDING_GLOBALS].mapped, sizeof(g));
+      check_sample_count(g, sample_start + count);
+      globals_max_depth_ = g.image.z;
+    }
+    // One wave per sample and run of up to wf_capacity_ slots.
+    const double work = double(slots_) * count;
+    double done = 0.0;
+    for (std::uint32_t s = sample_start; s < sample_start + count; ++s)
+      for (std::uint32_t slot0 = 0; slot0 < slots_; slot0 += wf_capacity_) {
+        const std::uint32_t n = std::min(wf_capacity_, slots_ - slot0);
+        wf_wave(s, slot0, n);
+        done += n;
+        if (progress) progress(done / work);
+      }
+    return;
+  }
   if (!render_.pipeline)
     throw std::logic_error("GpuRenderer::render: built without a render pipeline (probes only)");
   {

@@ -17,8 +17,13 @@ namespace basalt::vkx {
 /// Which build of shaders/render.comp renders: `full` (every material kind) or `lean`
 /// (compiled with BASALT_LEAN_MATERIALS: MATERIAL_DIFFUSE only, for scenes whose feature
 /// bits have no FEATURE_MAT_* other than FEATURE_MAT_DIFFUSE); `automatic` picks lean
-/// whenever it can render the features. Both are specialised for the features.
-enum class ShaderVariant { automatic, full, lean };
+/// whenever it can render the features, and the wavefront otherwise (except for the
+/// all-features pipeline, which stays full). All are specialised for the features.
+/// `wavefront`: the stages of shaders/wavefront.comp instead of the megakernel: an extend
+/// pipeline, and shade pipelines for groups of material types (layered, mixes, the others),
+/// each specialised for the features with only its group's material bits; the paths are
+/// queued per material type (docs/performance.md).
+enum class ShaderVariant { automatic, full, lean, wavefront };
 
 /// Renders one SceneTables on one Context. Tables are uploaded at construction.
 class GpuRenderer {
@@ -81,7 +86,9 @@ class GpuRenderer {
   double seconds_pipeline = 0.0;  // pipeline creation plus the driver's compile at first use
   double seconds_specialise = 0.0;  // SPIR-V specialisation of the pipelines built (specialise.h)
   std::uint64_t device_bytes = 0; // bytes of all scene tables on the device
-  std::string variant;            // render shader build in use: "lean" or "full"
+  std::string variant;            // render shader build in use: "lean", "full" or "wavefront"
+  /// Paths of a wavefront wave (at most; a wave is one sample of up to this many pixel slots).
+  static inline std::uint32_t wavefront_capacity = 65536;
 
  private:
   struct Pipeline {
@@ -93,7 +100,9 @@ class GpuRenderer {
   };
   Pipeline make_pipeline(const std::uint32_t* spirv, std::size_t bytes, std::uint32_t features,
                          std::uint32_t features2,
-                         const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings);
+                         const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings,
+                         std::uint32_t wf_stage = kNoStage);
+  static constexpr std::uint32_t kNoStage = 0xffffffffu;  // no specialization constant 4
   void destroy_pipeline(Pipeline& p);
   void dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint32_t invocations);
 
@@ -123,6 +132,19 @@ class GpuRenderer {
                  std::uint32_t f2, std::size_t n, const void* input, std::size_t in_size,
                  void* output, std::size_t out_size, std::uint32_t pad0);
   void destroy_stage(Stage& s);
+  // The wavefront (variant "wavefront"): extend stage, shade stage per MATERIAL_* type (built
+  // for the scene's types at construction, any other on first use), paths and lists.
+  Pipeline wf_extend_{};
+  std::vector<Pipeline> wf_shade_;
+  Buffer wf_paths_{}, wf_lists_{};
+  std::uint32_t wf_capacity_ = 0;
+  std::uint32_t wf_features_ = 0, wf_features2_ = 0;  // the words the stages specialise
+  std::vector<std::pair<std::uint32_t, Buffer*>> wf_bindings_;
+  std::uint32_t globals_max_depth_ = 0;  // Globals image.z at the last render()
+  /// \brief The shade pipeline of MATERIAL_* \p type, built if it is not yet.
+  Pipeline& wf_shade(std::uint32_t type);
+  /// \brief Runs sample \p s of the \p n slots from \p slot0 through the wavefront stages.
+  void wf_wave(std::uint32_t s, std::uint32_t slot0, std::uint32_t n);
   std::uint64_t rays_ = 0, nonfinite_ = 0;
   double units_per_second_ = 0.0;  // measured pixel-samples per second
 };

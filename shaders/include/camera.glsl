@@ -81,4 +81,18 @@ CameraRay camera_ray(uint px, uint py, uint s) {
   return cr;
 }
 
+// Pixel of invocation slot i (docs/path-spec.md section 9): lane i % 64 of tile i / 64, the
+// tiles shuffled as tile' = (tile * stride) % ntiles with ntiles = total / 64 (total: the
+// tile-padded slot count; the host keeps (ntiles - 1) * stride below 2^32). False for a slot
+// of the padding past the image's edge.
+bool slot_pixel(uint i, uint stride, uint total, out uint px, out uint py) {
+  uint tile = i / 64u;
+  uint lane = i % 64u;
+  uint shuffled = (tile * stride) % (total / 64u);
+  uint tiles_x = (globals.image.x + 7u) / 8u;
+  px = (shuffled % tiles_x) * 8u + lane % 8u;
+  py = (shuffled / tiles_x) * 8u + lane / 8u;
+  return px < globals.image.x && py < globals.image.y;
+}
+
 #endif

@@ -202,6 +202,15 @@ vec3 sphere_normal(uint sph, vec3 n) {
   return (sphere_at(sph).flags & SHAPE_FLAG_FLIP_NORMAL) != 0u ? -n : n;
 }
 
+// The material index of a closest hit's primitive (INVALID_INDEX: none).
+uint hit_material(Hit hit) {
+  if ((hit.prim & PRIM_SPHERE_BIT) != 0u)
+    return (FEATURES & FEATURE_SPHERES) != 0u ? sphere_at(hit.prim & PRIM_INDEX_MASK).material
+                                              : INVALID_INDEX;
+  return (FEATURES & FEATURE_TRIANGLES) != 0u ? mesh_at(triangle_at(hit.prim).mesh).material
+                                              : INVALID_INDEX;
+}
+
 // Surface point of a closest hit (docs/path-spec.md section 4). Triangles: interpolated
 // position, b0 = 1 - b1 - b2. Spheres: o + t d re-projected onto the sphere (pbrt-v4 6.2.2).
 // With FEATURE_TEXTURES, also the texture context with its footprint (docs/textures-spec.md
@@ -235,7 +244,7 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
       sp.ng = sphere_normal(sph, (p - cr.xyz) / cr.w);
       sp.ns = sp.ng;
       sp.m = sphere_bound(cr);
-      sp.material = sphere_at(sph).material;
+      sp.material = hit_material(hit);
       sp.light = sphere_at(sph).light;
       dpdu = sphere_dpdu(sph, sp.p);
       if ((FEATURES & FEATURE_TEXTURES) != 0u) {
@@ -252,7 +261,7 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
     uint tri = hit.prim;
     triangle_geometry(tri, vec3(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2), sp.p, sp.ng, sp.ns, sp.m);
     Mesh m = mesh_at(triangle_at(tri).mesh);
-    sp.material = m.material;
+    sp.material = hit_material(hit);
     vertex_normals = (FEATURES & FEATURE_SHADING_NORMALS) != 0u &&
                      (m.flags & SHAPE_FLAG_HAS_NORMALS) != 0u;
     sp.light = m.light_base == INVALID_INDEX ? INVALID_INDEX : m.light_base + (tri - m.tri_base);

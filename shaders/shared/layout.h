@@ -534,6 +534,21 @@ struct PassConstants {
   uint pad1;
 };
 
+// ---- wavefront stages (shaders/wavefront.comp, docs/performance.md) ----------------------
+// The paths of a wave live in BINDING_PROBE_IN (WF_PATH_VEC4S vec4 each: the integrator's
+// PathState and the hit of its ray); BINDING_PROBE_OUT holds WF_COUNTERS counter words, then
+// WF_LISTS lists of path indices of `capacity` entries each (PassConstants.pad1): the active
+// lists 0 and 1 (the paths still going, written by the shade stages of one iteration, read by
+// the extend stage of the next) and a queue per material type (written by the extend stage,
+// read by that type's shade pipeline). Counter k counts the entries of list k.
+// PassConstants of a stage: sample_start the wave's sample, sample_count the iteration,
+// pixel_offset its first slot, pixel_count the invocations, pad0 the list or queue it reads
+// (a shade stage: queue | parity << 16, the active list it appends to), pad1 the capacity.
+BASALT_CONST uint WF_PATH_VEC4S = 12u;
+BASALT_CONST uint WF_COUNTERS = 32u;
+BASALT_CONST uint WF_LIST_QUEUE = 2u;  // list WF_LIST_QUEUE + t: the queue of MATERIAL_* t
+BASALT_CONST uint WF_LISTS = WF_LIST_QUEUE + MATERIAL_TYPE_COUNT;
+
 // ---- test probes (shaders/tests/probe.comp and its CPU twin host/cpu/probe.cpp) ---------
 BASALT_CONST uint PROBE_CLOSEST = 0u;   // in: ray o, d, tMax  -> out: t, b1, b2 / prim
 BASALT_CONST uint PROBE_OCCLUDED = 1u;  // in: ray o, d, tMax  -> out: u.x = 1 if occluded
@@ -656,6 +671,7 @@ static_assert(sizeof(Texture) == 192 && offsetof(Texture, param) == 32 &&
               offsetof(Texture, xform) == 128, "Texture layout");
 static_assert(sizeof(MipLevel) == 16, "MipLevel layout");
 static_assert(sizeof(PassConstants) == 32, "PassConstants layout");
+static_assert(WF_COUNTERS >= WF_LISTS, "a counter for every wavefront list");
 }  // namespace basalt::gpu
 #endif
 
