@@ -337,8 +337,9 @@ int main(int argc, char** argv) {
        "exhaustive, power or uniform",
        {"scene", "bvh", "exhaustive", "power", "uniform"}},
       {"--pipeline", &opt.pipeline,
-       "GPU pipeline, specialised to the scene's features: specialised (the default: the lean "
-       "megakernel for diffuse-only scenes, else the wavefront), megakernel (one shader for the "
+       "GPU pipeline, specialised to the scene's features: specialised (the default: the "
+       "wavefront for scenes with materials beyond diffuse, Oren-Nayar and measured, else the "
+       "megakernel), megakernel (one shader for the "
        "whole path), wavefront (an extend stage and shading pipelines by material type; the "
        "same image up to the order of its sums), or all (the megakernel with every feature "
        "compiled in; same image, for timing)",

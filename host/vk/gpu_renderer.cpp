@@ -161,12 +161,17 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   if (which == ShaderVariant::lean && !lean_suffices(features))
     throw std::invalid_argument("the lean render shader cannot render feature bits " +
                                 std::to_string(features));
-  // automatic: the lean megakernel where it suffices (diffuse materials only), else the
-  // wavefront stages, which render scenes of other materials 1.4-2.9x faster on lavapipe
-  // (docs/performance.md); the all-features pipeline stays one megakernel.
+  // automatic: the wavefront stages for scenes with a material beyond the closed-form
+  // reflection BRDFs (diffuse, Oren-Nayar, measured), which they render up to 2.7x faster on
+  // lavapipe; below that the shading code is small and the megakernel is as fast or faster
+  // (materials-diffuse 1.29x, materials-measured 1.22x as wavefront; docs/performance.md).
+  // The all-features pipeline stays one megakernel.
+  constexpr std::uint32_t kMegakernelMaterials =
+      gpu::FEATURE_MAT_DIFFUSE | gpu::FEATURE_MAT_OREN_NAYAR | gpu::FEATURE_MAT_MEASURED;
   const bool wavefront =
       which == ShaderVariant::wavefront ||
-      (which == ShaderVariant::automatic && !lean_suffices(features) && features != 0xffffffffu);
+      (which == ShaderVariant::automatic && features != 0xffffffffu &&
+       (features & material_bits() & ~kMegakernelMaterials) != 0u);
   const bool lean = !wavefront && which != ShaderVariant::full && lean_suffices(features);
   variant = wavefront ? "wavefront" : lean ? "lean" : "full";
   // Invocations cover 8x8 pixel tiles (one workgroup each): slots_ is the tile-padded count.
@@ -276,6 +281,25 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     wf_bindings_.push_back({BINDING_PROBE_OUT, &wf_lists_});
     wf_features_ = features;
     wf_features2_ = features2;
+    // The mix group's material bits: the types a mix of the scene may reach (its children,
+    // theirs, ...), not every type of the scene.
+    wf_mix_bits_ = 0;
+    std::vector<std::uint32_t> stack;
+    std::vector<bool> seen(t.materials.size(), false);
+    for (std::uint32_t m = 0; m < t.materials.size(); ++m)
+      if (wf_group(t.materials[m].type) == wf_group(gpu::MATERIAL_MIX)) stack.push_back(m);
+    while (!stack.empty()) {
+      const std::uint32_t m = stack.back();
+      stack.pop_back();
+      if (m >= t.materials.size() || seen[m]) continue;
+      seen[m] = true;
+      const gpu::Material& mat = t.materials[m];
+      wf_mix_bits_ |= material_feature(mat.type);
+      if (wf_group(mat.type) == wf_group(gpu::MATERIAL_MIX)) {
+        stack.push_back(mat.aux0);
+        stack.push_back(mat.aux1);
+      }
+    }
     wf_extend_ = make_pipeline(wavefront_spv, sizeof(wavefront_spv), features, features2,
                                wf_bindings_, 0u);
     wf_shade_.resize(kWfGroups);
@@ -429,14 +453,14 @@ GpuRenderer::Pipeline& GpuRenderer::wf_shade(std::uint32_t type) {
   const std::uint32_t group = wf_group(type);
   Pipeline& p = wf_shade_.at(group);
   if (p.pipeline) return p;
-  // The scene's material bits of the group's types (a mix may resolve to any: all of them).
-  std::uint32_t f = wf_features_;
+  // The scene's material bits of the group's types; for the mixes, of the types they reach.
+  std::uint32_t bits = wf_mix_bits_;
   if (group != wf_group(gpu::MATERIAL_MIX)) {
-    std::uint32_t bits = 0;
+    bits = 0;
     for (std::uint32_t t = 0; t < gpu::MATERIAL_TYPE_COUNT; ++t)
       if (wf_group(t) == group) bits |= material_feature(t);
-    f = (f & ~material_bits()) | (f & bits);
   }
+  const std::uint32_t f = (wf_features_ & ~material_bits()) | (wf_features_ & bits);
   p = make_pipeline(wavefront_spv, sizeof(wavefront_spv), f, wf_features2_, wf_bindings_, 1u);
   // lavapipe compiles at first dispatch (see the constructor's empty pass).
   dispatch(p, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);

@@ -17,8 +17,9 @@ namespace basalt::vkx {
 /// Which build of shaders/render.comp renders: `full` (every material kind) or `lean`
 /// (compiled with BASALT_LEAN_MATERIALS: MATERIAL_DIFFUSE only, for scenes whose feature
 /// bits have no FEATURE_MAT_* other than FEATURE_MAT_DIFFUSE); `automatic` picks lean
-/// whenever it can render the features, and the wavefront otherwise (except for the
-/// all-features pipeline, which stays full). All are specialised for the features.
+/// whenever it can render the features; the wavefront for scenes with a material beyond
+/// diffuse, Oren-Nayar and measured (not for the all-features pipeline, which stays full).
+/// All are specialised for the features.
 /// `wavefront`: the stages of shaders/wavefront.comp instead of the megakernel: an extend
 /// pipeline, and shade pipelines for groups of material types (layered, mixes, the others),
 /// each specialised for the features with only its group's material bits; the paths are
@@ -139,6 +140,7 @@ class GpuRenderer {
   Buffer wf_paths_{}, wf_lists_{};
   std::uint32_t wf_capacity_ = 0;
   std::uint32_t wf_features_ = 0, wf_features2_ = 0;  // the words the stages specialise
+  std::uint32_t wf_mix_bits_ = 0;  // material bits of the types the scene's mixes reach
   std::vector<std::pair<std::uint32_t, Buffer*>> wf_bindings_;
   std::uint32_t globals_max_depth_ = 0;  // Globals image.z at the last render()
   /// \brief The shade pipeline of MATERIAL_* \p type, built if it is not yet.
