@@ -635,8 +635,17 @@ void GpuRenderer::run_stage(Stage& s, const std::uint32_t* spirv, std::size_t sp
 }
 
 std::vector<gpu::ProbeOut> GpuRenderer::probe(const std::vector<gpu::ProbeIn>& queries) {
+  // The probe is specialised for the uploaded Globals' feature words like the render pipeline
+  // (lavapipe compiles it with every feature in about 80 s, for the scene's in a few), and
+  // rebuilt when set_globals changes them.
+  gpu::Globals g;
+  std::memcpy(&g, tables_[BINDING_GLOBALS].mapped, sizeof(g));
+  if (probe_.capacity && (g.features.x != probe_features_[0] || g.features.y != probe_features_[1]))
+    destroy_stage(probe_);
+  probe_features_[0] = g.features.x;
+  probe_features_[1] = g.features.y;
   std::vector<gpu::ProbeOut> result(queries.size());
-  run_stage(probe_, probe_spv, sizeof(probe_spv), 0xffffffffu, 0xffffffffu, queries.size(),
+  run_stage(probe_, probe_spv, sizeof(probe_spv), g.features.x, g.features.y, queries.size(),
             queries.data(), sizeof(gpu::ProbeIn), result.data(), sizeof(gpu::ProbeOut), 0u);
   return result;
 }

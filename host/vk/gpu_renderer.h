@@ -64,7 +64,8 @@ class GpuRenderer {
   ///        exactly as the full one does (no feature it lacks, i.e. no FEATURE_MAT_* other
   ///        than FEATURE_MAT_DIFFUSE and no bit it does not know).
   static bool lean_suffices(std::uint32_t features);
-  /// \brief Runs shaders/tests/probe.comp over \p queries (GPU twin of basalt::cpu::probe).
+  /// \brief Runs shaders/tests/probe.comp over \p queries (GPU twin of basalt::cpu::probe),
+  ///        specialised for the uploaded Globals' feature words.
   std::vector<gpu::ProbeOut> probe(const std::vector<gpu::ProbeIn>& queries);
   /// \brief Traces \p rays with shaders/trace.comp (the renderer's traversal, specialised for
   ///        the scene's features): closest hits, or any hit per ray with \p any_hit; at most
@@ -125,6 +126,7 @@ class GpuRenderer {
     std::size_t capacity = 0;
   };
   Stage probe_, trace_;  // shaders/tests/probe.comp; shaders/trace.comp
+  std::uint32_t probe_features_[2] = {0, 0};  // the feature words probe_ is specialised for
   /// \brief Makes \p s hold at least \p n entries of \p in_size and \p out_size bytes, with
   ///        its pipeline from \p spirv specialised for the feature words \p f1, \p f2; copies
   ///        \p n entries from \p input, dispatches one invocation each with \p pc.pad0 = \p

@@ -1,6 +1,7 @@
 // BSDF acceptance-test helpers: probe batching, material records, generated measured tables,
 // input generators, chi-square and albedo statistics (see bsdf_check.h).
 #include "common/bsdf_check.h"
+#include "scene/materials.h"
 
 #include <algorithm>
 #include <bit>
@@ -71,6 +72,10 @@ SceneTables make_tables(const std::vector<gpu::Material>& materials,
   )");
   t.materials = materials;
   t.measured = measured;
+  // The feature words name every material kind of the table, as a parsed scene's do: the
+  // probe pipeline is specialised for them (GpuRenderer::probe).
+  for (const gpu::Material& m : materials) t.features |= material_feature(m.type);
+  t.globals.features.x = t.features;
   set_seed(t, 0);
   return t;
 }
