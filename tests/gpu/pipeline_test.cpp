@@ -203,6 +203,42 @@ TEST(Wavefront, SameImageAsTheMegakernel) {
   EXPECT_GE(agreeing_fraction(cpu, gpu, 1e-3f), 1.0 - 3.0 / (48 * 32));
 }
 
+// A path passes through at most 64 interfaces (pbrt-v4's SkipIntersection; the crossings
+// do not count as bounces) and ends at the 65th. The wavefront runs one extend and one shade
+// dispatch per crossing, within its iteration bound (2 + maxdepth + 64), and agrees with the
+// megakernel bit for bit: behind 60 interface quads the camera sees the sky (radiance 1), behind
+// 70 its paths end unlit.
+TEST(Wavefront, SameImageThroughSixtyFourInterfaces) {
+  for (int quads : {60, 70}) {
+    std::string text = scene_head("0 0 -1  0 0 1  0 1 0", 20, 8, 8, 1, 5) +
+                       "LightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n"
+                       "MakeNamedMaterial \"none\" \"string type\" \"interface\"\n"
+                       "NamedMaterial \"none\"\n";
+    for (int k = 0; k < quads; ++k) {
+      const std::string z = std::to_string(1 + k);
+      text += "Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ] \"point3 P\" [ -100 -100 " +
+              z + " 100 -100 " + z + " 100 100 " + z + " -100 100 " + z + " ]\n";
+    }
+    const SceneTables t = tables_from_string(text);
+    auto& ctx = gpu_context();
+    const std::size_t before = ctx.validation_errors();
+    std::vector<glm::vec4> images[2];
+    for (int k = 0; k < 2; ++k) {
+      vkx::GpuRenderer gpu(ctx, t, t.features,
+                           k == 0 ? vkx::ShaderVariant::full : vkx::ShaderVariant::wavefront);
+      gpu.render(0, 1);
+      images[k] = gpu.accum();
+    }
+    EXPECT_EQ(ctx.validation_errors(), before);
+    ASSERT_EQ(images[0].size(), 64u);
+    EXPECT_EQ(std::memcmp(images[0].data(), images[1].data(), 64 * sizeof(glm::vec4)), 0) << quads;
+    for (const glm::vec4& px : images[1]) {
+      EXPECT_EQ(px.w, 1.0f);
+      EXPECT_NEAR(px.x, quads < 64 ? 1.0f : 0.0f, 1e-5f) << quads << " interfaces";
+    }
+  }
+}
+
 // A scene with any material kind other than diffuse never gets the lean shader: not by
 // default (it gets the wavefront stages), and asking for it is an error.
 TEST(LeanVariant, NeverForOtherMaterials) {
