@@ -31,6 +31,9 @@ struct WfPath {
 layout(std430, set = 0, binding = BINDING_PROBE_IN) restrict buffer WfPathBuffer {
   WfPath wf_paths[];
 };
+// The same paths as a uniform texel view (R32G32B32A32_UINT): lavapipe fetches texels without
+// the per-lane loop of its storage-buffer loads (bindings.glsl).
+layout(set = 0, binding = BINDING_WF_PATH_TEXELS) uniform usamplerBuffer wf_path_texels;
 layout(std430, set = 0, binding = BINDING_PROBE_OUT) restrict buffer WfListBuffer {
   uint wf_lists[];  // WF_COUNTERS counters, then WF_LISTS lists of pc.pad1 entries
 };
@@ -55,7 +58,9 @@ void wf_store(uint id, PathState ps, Hit hit) {
 
 // Loads path id (wf_store's inverse).
 PathState wf_load(uint id, out Hit hit) {
-  vec4 v[WF_PATH_VEC4S] = wf_paths[id].v;
+  vec4 v[WF_PATH_VEC4S];
+  [[unroll]] for (uint k = 0u; k < WF_PATH_VEC4S; ++k)
+    v[k] = uintBitsToFloat(texelFetch(wf_path_texels, int(id * WF_PATH_VEC4S + k)));
   PathState ps;
   ps.ray = Ray(v[0].xyz, v[0].w, v[1].xyz);
   ps.pdf_prev = v[1].w;

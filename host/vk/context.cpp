@@ -149,6 +149,7 @@ Context::Context(const std::string& selector, bool validation) {
   info_.is_cpu = props.deviceType == vk::PhysicalDeviceType::eCpu;
   info_.max_storage_buffer_range = props.limits.maxStorageBufferRange;
   info_.max_texel_buffer_elements = props.limits.maxTexelBufferElements;
+  info_.max_per_stage_sampled_images = props.limits.maxPerStageDescriptorSampledImages;
 
   auto families = physical.getQueueFamilyProperties();
   queue_family = UINT32_MAX;

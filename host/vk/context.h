@@ -17,6 +17,7 @@ struct DeviceInfo {
   bool is_cpu = false;
   std::uint64_t max_storage_buffer_range = 0;
   std::uint64_t max_texel_buffer_elements = 0;
+  std::uint32_t max_per_stage_sampled_images = 0;  // uniform texel views count here
 };
 
 /// A buffer with its memory, persistently mapped (host-visible memory).

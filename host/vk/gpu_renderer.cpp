@@ -120,7 +120,8 @@ static_assert(BINDING_BVH_TEXELS == BINDING_COUNT && BINDING_LEAF_TEXELS == BIND
                   BINDING_SPHERE_TEXELS == BINDING_COUNT + 13 &&
                   BINDING_MIP_LEVEL_TEXELS == BINDING_COUNT + 14 &&
                   BINDING_TEXTURE_TEXELS == BINDING_COUNT + 15 &&
-                  BINDING_BVH_TEXELS + TEXEL_VIEW_COUNT <= BINDING_PROBE_IN,
+                  BINDING_BVH_TEXELS + TEXEL_VIEW_COUNT <= BINDING_WF_PATH_TEXELS &&
+                  BINDING_WF_PATH_TEXELS < BINDING_PROBE_IN,
               "texel view bindings follow the storage tables in kTexelViews' order");
 
 /// The texel view of storage table b, or null if it has none.
@@ -168,9 +169,17 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   // The all-features pipeline stays one megakernel.
   constexpr std::uint32_t kMegakernelMaterials =
       gpu::FEATURE_MAT_DIFFUSE | gpu::FEATURE_MAT_OREN_NAYAR | gpu::FEATURE_MAT_MEASURED;
+  // The wavefront binds one more uniform texel view than the tables (its paths): a device
+  // with fewer per stage than Vulkan's 16 + 1 keeps the megakernel.
+  const bool wavefront_fits = ctx.info().max_per_stage_sampled_images > TEXEL_VIEW_COUNT;
+  if (which == ShaderVariant::wavefront && !wavefront_fits)
+    throw std::invalid_argument("the wavefront stages need " +
+                                std::to_string(TEXEL_VIEW_COUNT + 1) +
+                                " uniform texel views per stage; " + ctx.info().name + " has " +
+                                std::to_string(ctx.info().max_per_stage_sampled_images));
   const bool wavefront =
       which == ShaderVariant::wavefront ||
-      (which == ShaderVariant::automatic && features != 0xffffffffu &&
+      (which == ShaderVariant::automatic && wavefront_fits && features != 0xffffffffu &&
        (features & material_bits() & ~kMegakernelMaterials) != 0u);
   const bool lean = !wavefront && which != ShaderVariant::full && lean_suffices(features);
   variant = wavefront ? "wavefront" : lean ? "lean" : "full";
@@ -270,9 +279,17 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   if (wavefront) {
     // Paths and lists of one wave (layout.h, WF_*), the stages' pipelines: extend, and shade
     // for each material type of the scene (and MATERIAL_NONE, for shapes without one).
-    wf_capacity_ = std::min(wavefront_capacity, slots_);
+    // The paths' texel view holds WF_PATH_VEC4S texels a path: capacity within the device's
+    // maxTexelBufferElements (Vulkan promises 65,536: 5,461 paths).
+    wf_capacity_ = std::min<std::uint64_t>(
+        {wavefront_capacity, slots_, ctx.info().max_texel_buffer_elements / gpu::WF_PATH_VEC4S});
     const auto usage = vk::BufferUsageFlagBits::eStorageBuffer;
-    wf_paths_ = ctx_.create_buffer(std::size_t(wf_capacity_) * gpu::WF_PATH_VEC4S * 16, usage);
+    wf_paths_ = ctx_.create_buffer(std::size_t(wf_capacity_) * gpu::WF_PATH_VEC4S * 16,
+                                   usage | vk::BufferUsageFlagBits::eUniformTexelBuffer);
+    wf_path_view_ = ctx.device.createBufferView({.buffer = wf_paths_.buffer,
+                                                 .format = vk::Format::eR32G32B32A32Uint,
+                                                 .offset = 0,
+                                                 .range = wf_paths_.size});
     wf_lists_ = ctx_.create_buffer(
         (gpu::WF_COUNTERS + std::size_t(gpu::WF_LISTS) * wf_capacity_) * 4, usage);
     device_bytes += wf_paths_.size + wf_lists_.size;
@@ -301,7 +318,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
       }
     }
     wf_extend_ = make_pipeline(wavefront_spv, sizeof(wavefront_spv), features, features2,
-                               wf_bindings_, 0u);
+                               wf_bindings_, 0u, wf_path_view_);
     wf_shade_.resize(kWfGroups);
     dispatch(wf_extend_, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
     std::vector<bool> present(gpu::MATERIAL_TYPE_COUNT, false);
@@ -329,6 +346,7 @@ GpuRenderer::~GpuRenderer() {
   destroy_pipeline(wf_extend_);
   for (Pipeline& p : wf_shade_) destroy_pipeline(p);
   if (wf_capacity_) {
+    ctx_.device.destroyBufferView(wf_path_view_);
     ctx_.destroy_buffer(wf_paths_);
     ctx_.destroy_buffer(wf_lists_);
   }
@@ -339,7 +357,8 @@ GpuRenderer::~GpuRenderer() {
 GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std::size_t bytes,
                                                  std::uint32_t features, std::uint32_t features2,
                                                  const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings,
-                                                 std::uint32_t wf_stage) {
+                                                 std::uint32_t wf_stage,
+                                                 vk::BufferView wf_paths) {
   auto& dev = ctx_.device;
   Pipeline p;
   std::vector<vk::DescriptorSetLayoutBinding> layout_bindings;
@@ -350,6 +369,11 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
                                .stageFlags = vk::ShaderStageFlagBits::eCompute});
   for (std::uint32_t k = 0; k < views_.size(); ++k)
     layout_bindings.push_back({.binding = BINDING_BVH_TEXELS + k,
+                               .descriptorType = vk::DescriptorType::eUniformTexelBuffer,
+                               .descriptorCount = 1,
+                               .stageFlags = vk::ShaderStageFlagBits::eCompute});
+  if (wf_paths)
+    layout_bindings.push_back({.binding = BINDING_WF_PATH_TEXELS,
                                .descriptorType = vk::DescriptorType::eUniformTexelBuffer,
                                .descriptorCount = 1,
                                .stageFlags = vk::ShaderStageFlagBits::eCompute});
@@ -402,7 +426,7 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
 
   const vk::DescriptorPoolSize sizes[2] = {
       {.type = vk::DescriptorType::eStorageBuffer, .descriptorCount = std::uint32_t(bindings.size())},
-      {.type = vk::DescriptorType::eUniformTexelBuffer, .descriptorCount = TEXEL_VIEW_COUNT}};
+      {.type = vk::DescriptorType::eUniformTexelBuffer, .descriptorCount = TEXEL_VIEW_COUNT + 1}};
   p.pool = dev.createDescriptorPool({.maxSets = 1, .poolSizeCount = 2, .pPoolSizes = sizes});
   p.set = dev.allocateDescriptorSets(
       {.descriptorPool = p.pool, .descriptorSetCount = 1, .pSetLayouts = &p.set_layout})[0];
@@ -422,6 +446,12 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
                       .descriptorCount = 1,
                       .descriptorType = vk::DescriptorType::eUniformTexelBuffer,
                       .pTexelBufferView = &views_[k]});
+  if (wf_paths)
+    writes.push_back({.dstSet = p.set,
+                      .dstBinding = BINDING_WF_PATH_TEXELS,
+                      .descriptorCount = 1,
+                      .descriptorType = vk::DescriptorType::eUniformTexelBuffer,
+                      .pTexelBufferView = &wf_paths});
   dev.updateDescriptorSets(writes, {});
   return p;
 }
@@ -461,7 +491,8 @@ GpuRenderer::Pipeline& GpuRenderer::wf_shade(std::uint32_t type) {
       if (wf_group(t) == group) bits |= material_feature(t);
   }
   const std::uint32_t f = (wf_features_ & ~material_bits()) | (wf_features_ & bits);
-  p = make_pipeline(wavefront_spv, sizeof(wavefront_spv), f, wf_features2_, wf_bindings_, 1u);
+  p = make_pipeline(wavefront_spv, sizeof(wavefront_spv), f, wf_features2_, wf_bindings_, 1u,
+                    wf_path_view_);
   // lavapipe compiles at first dispatch (see the constructor's empty pass).
   dispatch(p, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
   return p;

@@ -103,7 +103,7 @@ class GpuRenderer {
   Pipeline make_pipeline(const std::uint32_t* spirv, std::size_t bytes, std::uint32_t features,
                          std::uint32_t features2,
                          const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings,
-                         std::uint32_t wf_stage = kNoStage);
+                         std::uint32_t wf_stage = kNoStage, vk::BufferView wf_paths = {});
   static constexpr std::uint32_t kNoStage = 0xffffffffu;  // no specialization constant 4
   void destroy_pipeline(Pipeline& p);
   void dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint32_t invocations);
@@ -140,6 +140,7 @@ class GpuRenderer {
   Pipeline wf_extend_{};
   std::vector<Pipeline> wf_shade_;
   Buffer wf_paths_{}, wf_lists_{};
+  vk::BufferView wf_path_view_{};  // wf_paths_ as a uniform texel view (BINDING_WF_PATH_TEXELS)
   std::uint32_t wf_capacity_ = 0;
   std::uint32_t wf_features_ = 0, wf_features2_ = 0;  // the words the stages specialise
   std::uint32_t wf_mix_bits_ = 0;  // material bits of the types the scene's mixes reach

@@ -86,6 +86,7 @@ using mat4 = glm::mat4;
 
 // Probe shaders (tests) add their input and output tables to the same set, well above the
 // scene bindings so that later issues can append scene tables without moving them.
+#define BINDING_WF_PATH_TEXELS 47  // the wavefront's paths (BINDING_PROBE_IN) as a texel view
 #define BINDING_PROBE_IN 48
 #define BINDING_PROBE_OUT 49
 
