@@ -354,6 +354,23 @@ std::uint32_t material_feature(std::uint32_t tag) {
   }
 }
 
+std::vector<bool> materials_reached(const std::vector<gpu::Material>& materials,
+                                    std::vector<std::uint32_t> roots) {
+  std::vector<bool> reached(materials.size(), false);
+  while (!roots.empty()) {
+    const std::uint32_t mi = roots.back();
+    roots.pop_back();
+    if (mi >= materials.size() || reached[mi]) continue;
+    reached[mi] = true;
+    const gpu::Material& m = materials[mi];
+    if (m.type == MATERIAL_MIX || m.type == MATERIAL_MIX_WEIGHTED) {
+      roots.push_back(m.aux0);
+      roots.push_back(m.aux1);
+    }
+  }
+  return reached;
+}
+
 std::uint32_t material_max_lobes(std::uint32_t tag) {
   switch (tag) {
     case MATERIAL_PLASTIC: return 2;

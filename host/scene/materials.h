@@ -42,6 +42,10 @@ const std::vector<MaterialKind>& material_kinds();
 std::uint32_t material_feature(std::uint32_t tag);
 /// \brief The largest lobe count of a MATERIAL_* tag (materials-spec section 3).
 std::uint32_t material_max_lobes(std::uint32_t tag);
+/// \brief Which of \p materials are reached from \p roots, a mix (MIX, MIX_WEIGHTED) reaching
+///        its two children (aux0, aux1) and theirs; indices out of range reach nothing.
+std::vector<bool> materials_reached(const std::vector<gpu::Material>& materials,
+                                    std::vector<std::uint32_t> roots);
 
 /// What parse_material needs from the parser besides the parameters.
 struct MaterialContext {

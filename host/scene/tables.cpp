@@ -830,33 +830,23 @@ SceneTables build_tables_impl(const Scene& scene, Scene* release, BuildTimes* ti
   if (t.lights.size() > scene.lights.size()) t.features |= gpu::FEATURE_LIGHT_AREA;
   // Material and texture features from what the shapes reach (a named material no shape
   // uses, and its textures, cost nothing): the shapes' materials and, through mixes, theirs.
-  std::vector<bool> reached(t.materials.size(), false);
-  std::vector<std::uint32_t> todo;
-  for (const gpu::Mesh& m : t.meshes) todo.push_back(m.material);
-  for (const gpu::Sphere& sp : t.spheres) todo.push_back(sp.material);
-  while (!todo.empty()) {
-    const std::uint32_t mi = todo.back();
-    todo.pop_back();
-    if (mi >= t.materials.size() || reached[mi]) continue;
-    reached[mi] = true;
+  std::vector<std::uint32_t> roots;
+  for (const gpu::Mesh& m : t.meshes) roots.push_back(m.material);
+  for (const gpu::Sphere& sp : t.spheres) roots.push_back(sp.material);
+  const std::vector<bool> reached = materials_reached(t.materials, std::move(roots));
+  for (std::size_t mi = 0; mi < t.materials.size(); ++mi) {
+    if (!reached[mi]) continue;
     const gpu::Material& m = t.materials[mi];
-    if (m.type == gpu::MATERIAL_MIX || m.type == gpu::MATERIAL_MIX_WEIGHTED) {
-      todo.push_back(m.aux0);
-      todo.push_back(m.aux1);
-      // docs/bump-spec.md 1: one shading frame per hit cannot bump a weighted mix's children
-      // separately, as pbrt-v3 does.
+    // docs/bump-spec.md 1: one shading frame per hit cannot bump a weighted mix's children
+    // separately, as pbrt-v3 does.
+    if (m.type == gpu::MATERIAL_MIX_WEIGHTED)
       for (std::uint32_t c : {m.aux0, m.aux1})
-        if (m.type == gpu::MATERIAL_MIX_WEIGHTED && c < t.materials.size() &&
+        if (c < t.materials.size() &&
             (t.materials[c].flags & (gpu::MATFLAG_BUMP | gpu::MATFLAG_NORMALMAP | gpu::MATFLAG_VTURB)) &&
             c < scene.materials.size())
           throw SceneError(scene.materials[c].loc,
                            "a bump or normal map on a child of a pbrt-v3 weighted mix is not "
                            "supported (pbrt-v3 bumps each child in its own frame)");
-    }
-  }
-  for (std::size_t mi = 0; mi < t.materials.size(); ++mi) {
-    if (!reached[mi]) continue;
-    const gpu::Material& m = t.materials[mi];
     t.features |= material_feature(m.type);
     // docs/bump-spec.md 2: bump and normal maps need the texture context and its footprint.
     if (m.flags & gpu::MATFLAG_NORMALMAP) {

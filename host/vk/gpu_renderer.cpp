@@ -301,22 +301,12 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     // The mix group's material bits: the types a mix of the scene may reach (its children,
     // theirs, ...), not every type of the scene.
     wf_mix_bits_ = 0;
-    std::vector<std::uint32_t> stack;
-    std::vector<bool> seen(t.materials.size(), false);
+    std::vector<std::uint32_t> mixes;
     for (std::uint32_t m = 0; m < t.materials.size(); ++m)
-      if (wf_group(t.materials[m].type) == wf_group(gpu::MATERIAL_MIX)) stack.push_back(m);
-    while (!stack.empty()) {
-      const std::uint32_t m = stack.back();
-      stack.pop_back();
-      if (m >= t.materials.size() || seen[m]) continue;
-      seen[m] = true;
-      const gpu::Material& mat = t.materials[m];
-      wf_mix_bits_ |= material_feature(mat.type);
-      if (wf_group(mat.type) == wf_group(gpu::MATERIAL_MIX)) {
-        stack.push_back(mat.aux0);
-        stack.push_back(mat.aux1);
-      }
-    }
+      if (wf_group(t.materials[m].type) == wf_group(gpu::MATERIAL_MIX)) mixes.push_back(m);
+    const std::vector<bool> reached = materials_reached(t.materials, std::move(mixes));
+    for (std::uint32_t m = 0; m < t.materials.size(); ++m)
+      if (reached[m]) wf_mix_bits_ |= material_feature(t.materials[m].type);
     wf_extend_ = make_pipeline(wavefront_spv, sizeof(wavefront_spv), features, features2,
                                wf_bindings_, 0u, wf_path_view_);
     wf_shade_.resize(kWfGroups);
