@@ -139,8 +139,8 @@ void lobe_add(inout Bsdf b, Lobe L) {
 
 // MICROFACET_R (or SPECULAR_R when effectively smooth) with Fresnel `fresnel`: dielectric eta,
 // or conductor eta, k.
-void add_microfacet_r(inout Bsdf b, vec3 weight, float ax, float ay, uint mflags, uint fresnel,
-                      float eta, vec3 ceta, vec3 ck) {
+Lobe microfacet_r_lobe(vec3 weight, float ax, float ay, uint mflags, uint fresnel, float eta,
+                       vec3 ceta, vec3 ck) {
   bool smooth_ = max(ax, ay) < 1e-3;
   uint bits = fresnel | ((mflags & MATFLAG_BECKMANN) != 0u ? LOBEBIT_BECKMANN : 0u);
   Lobe L = lobe_new(smooth_ ? LOBE_SPECULAR_R : LOBE_MICROFACET_R, weight,
@@ -148,17 +148,17 @@ void add_microfacet_r(inout Bsdf b, vec3 weight, float ax, float ay, uint mflags
   L.p0 = vec4(mf_alphas(ax, ay), eta, 0.0);
   L.p1.xyz = ceta;
   L.p2.xyz = ck;
-  lobe_add(b, L);
+  return L;
 }
 
 // MICROFACET_T (or SPECULAR_T when effectively smooth) with IOR eta.
-void add_microfacet_t(inout Bsdf b, vec3 weight, float ax, float ay, uint mflags, float eta) {
+Lobe microfacet_t_lobe(vec3 weight, float ax, float ay, uint mflags, float eta) {
   bool smooth_ = max(ax, ay) < 1e-3;
   uint bits = (mflags & MATFLAG_BECKMANN) != 0u ? LOBEBIT_BECKMANN : 0u;
   Lobe L = lobe_new(smooth_ ? LOBE_SPECULAR_T : LOBE_MICROFACET_T, weight,
                     BSDF_TRANSMISSION | (smooth_ ? BSDF_SPECULAR : BSDF_GLOSSY), bits);
   L.p0 = vec4(mf_alphas(ax, ay), eta, 0.0);
-  lobe_add(b, L);
+  return L;
 }
 
 // Conductor eta and k of a material (docs/materials-spec.md section 3, CONDUCTOR): the slots,
@@ -178,9 +178,14 @@ void conductor_eta_k(uint m, uint slot_eta, uint slot_k, uint slot_r, SurfacePoi
 }
 
 // Appends the lobes of (non-mix) material m, weights scaled by `scale`
-// (docs/materials-spec.md section 3).
+// (docs/materials-spec.md section 3). Each kind's case fills the candidates c0..c4 in order,
+// and the lobe list is written at the five lobe_add calls after the switch: on lavapipe a
+// store at a varying index of bsdf_lobes is a per-lane scatter, and one at each of the 23 places
+// a kind appends a lobe made material-zoo's shading pipelines take 5 s longer to compile.
 void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
   if (!material_valid(m)) return;
+  Lobe none = lobe_new(LOBE_LAMBERT_R, vec3(0.0), 0u, 0u);  // lobe_add skips it
+  Lobe c0 = none, c1 = none, c2 = none, c3 = none, c4 = none;
   uint type = material_head(m).x;
   uint mflags = material_head(m).y;
   uint beck = (mflags & MATFLAG_BECKMANN) != 0u ? LOBEBIT_BECKMANN : 0u;
@@ -188,9 +193,9 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
     case MATERIAL_DIFFUSE:
       if (has_feature(FEATURE_MAT_DIFFUSE))
         // pbrt-v4 DiffuseMaterial clamps the reflectance to [0, 1].
-        lobe_add(b, lobe_new(LOBE_LAMBERT_R,
-                             scale * clamp(slot_value(m, SLOT_DIFFUSE_REFLECTANCE, sp).xyz, 0.0, 1.0),
-                             BSDF_REFLECTION | BSDF_DIFFUSE, 0u));
+        c0 = lobe_new(LOBE_LAMBERT_R,
+                      scale * clamp(slot_value(m, SLOT_DIFFUSE_REFLECTANCE, sp).xyz, 0.0, 1.0),
+                      BSDF_REFLECTION | BSDF_DIFFUSE, 0u);
       break;
 #if BSDF_ALL_MATERIALS
     case MATERIAL_OREN_NAYAR:
@@ -198,7 +203,7 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
         vec3 kd = scale * slot_value(m, SLOT_ON_REFLECTANCE, sp).xyz;
         float sigma = slot_value(m, SLOT_ON_SIGMA, sp).x;
         if (sigma == 0.0) {
-          lobe_add(b, lobe_new(LOBE_LAMBERT_R, kd, BSDF_REFLECTION | BSDF_DIFFUSE, 0u));
+          c0 = lobe_new(LOBE_LAMBERT_R, kd, BSDF_REFLECTION | BSDF_DIFFUSE, 0u);
         } else {
           // pbrt-v3 OrenNayar constructor: A, B from sigma in radians.
           Lobe L = lobe_new(LOBE_OREN_NAYAR, kd, BSDF_REFLECTION | BSDF_DIFFUSE, 0u);
@@ -207,7 +212,7 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
           precise float A = 1.0 - (s2 / (2.0 * (s2 + 0.33)));
           precise float B = 0.45 * s2 / (s2 + 0.09);
           L.p0.xy = vec2(A, B);
-          lobe_add(b, L);
+          c0 = L;
         }
       }
       break;
@@ -221,19 +226,20 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
         L.p2.xyz = k;
         L.bits |= (BSDF_REFLECTION | (mf_smooth(lobe_dist(L)) ? BSDF_SPECULAR : BSDF_GLOSSY))
                   << LOBEBIT_FLAGS_SHIFT;
-        lobe_add(b, L);
+        c0 = L;
       }
       break;
     case MATERIAL_METAL:
       if (has_feature(FEATURE_MAT_METAL))
-        add_microfacet_r(b, scale, slot_alpha(m, SLOT_CONDUCTOR_UROUGH, sp),
-                         slot_alpha(m, SLOT_CONDUCTOR_VROUGH, sp), mflags, FRESNEL_CONDUCTOR, 1.0,
-                         slot_value(m, SLOT_CONDUCTOR_ETA, sp).xyz, slot_value(m, SLOT_CONDUCTOR_K, sp).xyz);
+        c0 = microfacet_r_lobe(scale, slot_alpha(m, SLOT_CONDUCTOR_UROUGH, sp),
+                               slot_alpha(m, SLOT_CONDUCTOR_VROUGH, sp), mflags, FRESNEL_CONDUCTOR,
+                               1.0, slot_value(m, SLOT_CONDUCTOR_ETA, sp).xyz,
+                               slot_value(m, SLOT_CONDUCTOR_K, sp).xyz);
       break;
     case MATERIAL_MIRROR:
       if (has_feature(FEATURE_MAT_MIRROR))
-        lobe_add(b, lobe_new(LOBE_SPECULAR_R, scale * slot_value(m, SLOT_MIRROR_KR, sp).xyz,
-                             BSDF_REFLECTION | BSDF_SPECULAR, FRESNEL_ONE));
+        c0 = lobe_new(LOBE_SPECULAR_R, scale * slot_value(m, SLOT_MIRROR_KR, sp).xyz,
+                      BSDF_REFLECTION | BSDF_SPECULAR, FRESNEL_ONE);
       break;
     case MATERIAL_DIELECTRIC:
       if (has_feature(FEATURE_MAT_DIELECTRIC)) {
@@ -243,7 +249,7 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
         L.p1.xyz = slot_value(m, SLOT_DIELECTRIC_KR, sp).xyz;
         L.p2.xyz = slot_value(m, SLOT_DIELECTRIC_KT, sp).xyz;
         L.bits |= dielectric_flags(L.p0.z, lobe_dist(L)) << LOBEBIT_FLAGS_SHIFT;
-        lobe_add(b, L);
+        c0 = L;
       }
       break;
     case MATERIAL_THIN_DIELECTRIC:
@@ -251,7 +257,7 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
         Lobe L = lobe_new(LOBE_THIN_DIELECTRIC, scale,
                           BSDF_REFLECTION | BSDF_TRANSMISSION | BSDF_SPECULAR, 0u);
         L.p0.z = slot_value(m, SLOT_THIN_ETA, sp).x;
-        lobe_add(b, L);
+        c0 = L;
       }
       break;
     case MATERIAL_DIFFUSE_TRANSMISSION:
@@ -264,7 +270,7 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
         Lobe L = lobe_new(LOBE_DIFFUSE_TRANSMISSION, scale, flags, 0u);
         L.p1.xyz = R;
         L.p2.xyz = T;
-        lobe_add(b, L);
+        c0 = L;
       }
       break;
     case MATERIAL_COATED_DIFFUSE:
@@ -298,16 +304,16 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
           L.p3 = vec4(k, a.y);
         }
         L.bits |= layered_flags(layers_of(L)) << LOBEBIT_FLAGS_SHIFT;
-        lobe_add(b, L);
+        c0 = L;
       }
       break;
     case MATERIAL_PLASTIC:
       if (has_feature(FEATURE_MAT_PLASTIC)) {
-        lobe_add(b, lobe_new(LOBE_LAMBERT_R, scale * slot_value(m, SLOT_PLASTIC_KD, sp).xyz,
-                             BSDF_REFLECTION | BSDF_DIFFUSE, 0u));
+        c0 = lobe_new(LOBE_LAMBERT_R, scale * slot_value(m, SLOT_PLASTIC_KD, sp).xyz,
+                      BSDF_REFLECTION | BSDF_DIFFUSE, 0u);
         float a = slot_alpha(m, SLOT_PLASTIC_ROUGH, sp);
-        add_microfacet_r(b, scale * slot_value(m, SLOT_PLASTIC_KS, sp).xyz, a, a, mflags,
-                         FRESNEL_DIELECTRIC, 1.5, vec3(0.0), vec3(0.0));
+        c1 = microfacet_r_lobe(scale * slot_value(m, SLOT_PLASTIC_KS, sp).xyz, a, a, mflags,
+                               FRESNEL_DIELECTRIC, 1.5, vec3(0.0), vec3(0.0));
       }
       break;
     case MATERIAL_SUBSTRATE:
@@ -317,7 +323,7 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
                       vec2(1e-3));
         L.p1.xyz = slot_value(m, SLOT_SUBSTRATE_KD, sp).xyz;
         L.p2.xyz = slot_value(m, SLOT_SUBSTRATE_KS, sp).xyz;
-        lobe_add(b, L);
+        c0 = L;
       }
       break;
     case MATERIAL_TRANSLUCENT:
@@ -328,11 +334,11 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
           vec3 kd = slot_value(m, SLOT_TRANSLUCENT_KD, sp).xyz;
           vec3 ks = slot_value(m, SLOT_TRANSLUCENT_KS, sp).xyz;
           float a = slot_alpha(m, SLOT_TRANSLUCENT_ROUGH, sp);
-          lobe_add(b, lobe_new(LOBE_LAMBERT_R, scale * (r * kd), BSDF_REFLECTION | BSDF_DIFFUSE, 0u));
-          lobe_add(b, lobe_new(LOBE_LAMBERT_T, scale * (t * kd), BSDF_TRANSMISSION | BSDF_DIFFUSE, 0u));
-          add_microfacet_r(b, scale * (r * ks), a, a, mflags, FRESNEL_DIELECTRIC, 1.5, vec3(0.0),
-                           vec3(0.0));
-          add_microfacet_t(b, scale * (t * ks), a, a, mflags, 1.5);
+          c0 = lobe_new(LOBE_LAMBERT_R, scale * (r * kd), BSDF_REFLECTION | BSDF_DIFFUSE, 0u);
+          c1 = lobe_new(LOBE_LAMBERT_T, scale * (t * kd), BSDF_TRANSMISSION | BSDF_DIFFUSE, 0u);
+          c2 = microfacet_r_lobe(scale * (r * ks), a, a, mflags, FRESNEL_DIELECTRIC, 1.5,
+                                 vec3(0.0), vec3(0.0));
+          c3 = microfacet_t_lobe(scale * (t * ks), a, a, mflags, 1.5);
         }
       }
       break;
@@ -340,23 +346,21 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
       if (has_feature(FEATURE_MAT_UBER)) {
         vec3 op = slot_value(m, SLOT_UBER_OPACITY, sp).xyz;
         float eta = slot_value(m, SLOT_UBER_ETA, sp).x;
-        Lobe pass = lobe_new(LOBE_SPECULAR_T, scale * (vec3(1.0) - op),
-                             BSDF_TRANSMISSION | BSDF_SPECULAR, 0u);
-        pass.p0.z = 1.0;
-        lobe_add(b, pass);
-        lobe_add(b, lobe_new(LOBE_LAMBERT_R, scale * (op * slot_value(m, SLOT_UBER_KD, sp).xyz),
-                             BSDF_REFLECTION | BSDF_DIFFUSE, 0u));
-        add_microfacet_r(b, scale * (op * slot_value(m, SLOT_UBER_KS, sp).xyz),
-                         slot_alpha(m, SLOT_UBER_UROUGH, sp), slot_alpha(m, SLOT_UBER_VROUGH, sp),
-                         mflags, FRESNEL_DIELECTRIC, eta, vec3(0.0), vec3(0.0));
-        Lobe sr = lobe_new(LOBE_SPECULAR_R, scale * (op * slot_value(m, SLOT_UBER_KR, sp).xyz),
-                           BSDF_REFLECTION | BSDF_SPECULAR, FRESNEL_DIELECTRIC);
-        sr.p0.z = eta;
-        lobe_add(b, sr);
-        Lobe st = lobe_new(LOBE_SPECULAR_T, scale * (op * slot_value(m, SLOT_UBER_KT, sp).xyz),
-                           BSDF_TRANSMISSION | BSDF_SPECULAR, 0u);
-        st.p0.z = eta;
-        lobe_add(b, st);
+        c0 = lobe_new(LOBE_SPECULAR_T, scale * (vec3(1.0) - op), BSDF_TRANSMISSION | BSDF_SPECULAR,
+                      0u);
+        c0.p0.z = 1.0;
+        c1 = lobe_new(LOBE_LAMBERT_R, scale * (op * slot_value(m, SLOT_UBER_KD, sp).xyz),
+                      BSDF_REFLECTION | BSDF_DIFFUSE, 0u);
+        c2 = microfacet_r_lobe(scale * (op * slot_value(m, SLOT_UBER_KS, sp).xyz),
+                               slot_alpha(m, SLOT_UBER_UROUGH, sp),
+                               slot_alpha(m, SLOT_UBER_VROUGH, sp), mflags, FRESNEL_DIELECTRIC, eta,
+                               vec3(0.0), vec3(0.0));
+        c3 = lobe_new(LOBE_SPECULAR_R, scale * (op * slot_value(m, SLOT_UBER_KR, sp).xyz),
+                      BSDF_REFLECTION | BSDF_SPECULAR, FRESNEL_DIELECTRIC);
+        c3.p0.z = eta;
+        c4 = lobe_new(LOBE_SPECULAR_T, scale * (op * slot_value(m, SLOT_UBER_KT, sp).xyz),
+                      BSDF_TRANSMISSION | BSDF_SPECULAR, 0u);
+        c4.p0.z = eta;
       }
       break;
     case MATERIAL_MEASURED:
@@ -364,13 +368,18 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
         Lobe L = lobe_new(LOBE_MEASURED, scale, BSDF_REFLECTION | BSDF_GLOSSY, 0u);
         L.aux = material_head(m).z;
         L.p0.xyz = material_value(m, SLOT_MEASURED_DIMS).xyz;
-        lobe_add(b, L);
+        c0 = L;
       }
       break;
 #endif
     default:
       break;
   }
+  lobe_add(b, c0);
+  lobe_add(b, c1);
+  lobe_add(b, c2);
+  lobe_add(b, c3);
+  lobe_add(b, c4);
 }
 
 // The BSDF of material `material` at sp seen from wo_world (-ray direction): stochastic mixes
