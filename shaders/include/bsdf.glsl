@@ -32,9 +32,11 @@
 // with every Bsdf argument: a Bsdf is valid until the next bsdf_at.
 Lobe bsdf_lobes[MAX_LOBES];
 
-// Material kinds whose BSDFs may have more than one lobe (section 3). Without them every index
-// folds to 0 at specialisation, and the constant-indexed lobe stays in registers instead of
-// scratch memory (lavapipe: a diffuse scene renders 20% faster).
+// Material kinds whose BSDFs may have more than one lobe (section 3). Without them the list is
+// lobe 0 alone. With them, bsdf_lobe and lobe_add still index the list with constants only
+// (eight compares and selects): lavapipe keeps a list indexed so in registers, but reads and
+// writes a varying index lane by lane through memory (material-zoo rendered 14% slower so).
+// MAX_LOBES is 8 (layout.h): the eight cases below follow it.
 const uint MULTI_LOBE_FEATURES = FEATURE_MAT_PLASTIC | FEATURE_MAT_TRANSLUCENT |
                                  FEATURE_MAT_UBER | FEATURE_MAT_MIX_WEIGHTED;
 #if BSDF_ALL_MATERIALS
@@ -43,11 +45,19 @@ const bool BSDF_ONE_LOBE = (FEATURES & MULTI_LOBE_FEATURES) == 0u;
 const bool BSDF_ONE_LOBE = true;
 #endif
 
-// Index of lobe k in bsdf_lobes (0 when no material of the scene has several lobes).
-uint lobe_slot(uint k) { return BSDF_ONE_LOBE ? 0u : k; }
-
-// Lobe k of the current BSDF.
-Lobe bsdf_lobe(uint k) { return bsdf_lobes[lobe_slot(k)]; }
+// Lobe k of the current BSDF (constant indices only, see MULTI_LOBE_FEATURES).
+Lobe bsdf_lobe(uint k) {
+  if (BSDF_ONE_LOBE) return bsdf_lobes[0];
+  Lobe L = bsdf_lobes[0];
+  if (k == 1u) L = bsdf_lobes[1];
+  if (k == 2u) L = bsdf_lobes[2];
+  if (k == 3u) L = bsdf_lobes[3];
+  if (k == 4u) L = bsdf_lobes[4];
+  if (k == 5u) L = bsdf_lobes[5];
+  if (k == 6u) L = bsdf_lobes[6];
+  if (k == 7u) L = bsdf_lobes[7];
+  return L;
+}
 
 // The BSDF at a surface point: lobe count (lobes in bsdf_lobes), union of the lobe flags, and
 // the material after mix resolution (index, MATERIAL_* type; INVALID_INDEX / NONE if none).
@@ -129,10 +139,22 @@ Lobe lobe_new(uint tag, vec3 weight, uint flags, uint bits) {
               vec4(0.0), vec4(0.0));
 }
 
-// Appends L to the lobe list if its weight has a component > 0 and there is room.
+// Appends L to the lobe list if its weight has a component > 0 and there is room (constant
+// indices only, see MULTI_LOBE_FEATURES).
 void lobe_add(inout Bsdf b, Lobe L) {
   if (!any_positive(L.weight) || b.n >= MAX_LOBES) return;
-  bsdf_lobes[lobe_slot(b.n)] = L;
+  if (BSDF_ONE_LOBE) {
+    bsdf_lobes[0] = L;
+  } else {
+    if (b.n == 0u) bsdf_lobes[0] = L;
+    if (b.n == 1u) bsdf_lobes[1] = L;
+    if (b.n == 2u) bsdf_lobes[2] = L;
+    if (b.n == 3u) bsdf_lobes[3] = L;
+    if (b.n == 4u) bsdf_lobes[4] = L;
+    if (b.n == 5u) bsdf_lobes[5] = L;
+    if (b.n == 6u) bsdf_lobes[6] = L;
+    if (b.n == 7u) bsdf_lobes[7] = L;
+  }
   b.n++;
   b.flags |= lobe_flags(L);
 }

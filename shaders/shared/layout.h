@@ -659,6 +659,8 @@ static_assert(sizeof(TraceRay) == 32 && sizeof(TraceHit) == 16, "Trace layout");
 static_assert(sizeof(ProbeIn) == 96 && sizeof(ProbeOut) == 80, "Probe layout");
 static_assert(sizeof(Globals) == 64 + 4 * 16 + 4 * 16 + 6 * 16 + 64 + 4 * 16, "Globals layout");
 static_assert(sizeof(BvhNode) == 32 && offsetof(BvhNode, hi) == 16, "BvhNode layout");
+// shaders/include/bsdf.glsl (bsdf_lobe, lobe_add) spells out one case per lobe of the list.
+static_assert(MAX_LOBES == 8u, "bsdf.glsl lists eight lobe cases");
 static_assert(sizeof(BvhWideNode) == 64 && offsetof(BvhWideNode, qlo) == 16, "BvhWideNode layout");
 static_assert(sizeof(Triangle) == 16, "Triangle layout");
 static_assert(sizeof(Vertex) == 32, "Vertex layout");
