@@ -7,6 +7,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <exception>
+#include <future>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -307,16 +309,59 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     const std::vector<bool> reached = materials_reached(t.materials, std::move(mixes));
     for (std::uint32_t m = 0; m < t.materials.size(); ++m)
       if (reached[m]) wf_mix_bits_ |= material_feature(t.materials[m].type);
-    wf_extend_ = make_pipeline(wavefront_spv, sizeof(wavefront_spv), features, features2,
-                               wf_bindings_, 0u, wf_path_view_);
     wf_shade_.resize(kWfGroups);
-    dispatch(wf_extend_, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
-    std::vector<bool> present(gpu::MATERIAL_TYPE_COUNT, false);
-    present[gpu::MATERIAL_NONE] = true;
+    // The stages the scene needs: extend, and the shade group of each material type present
+    // (and MATERIAL_NONE's, for shapes without a material).
+    std::vector<bool> needed(kWfGroups, false);
+    needed[wf_group(gpu::MATERIAL_NONE)] = true;
     for (const gpu::Material& m : t.materials)
-      if (m.type < gpu::MATERIAL_TYPE_COUNT) present[m.type] = true;
-    for (std::uint32_t type = 0; type < gpu::MATERIAL_TYPE_COUNT; ++type)
-      if (present[type]) wf_shade(type);
+      if (m.type < gpu::MATERIAL_TYPE_COUNT) needed[wf_group(m.type)] = true;
+    std::vector<std::uint32_t> stages = {kNoStage};  // kNoStage: extend; else a shade group
+    for (std::uint32_t g = 0; g < kWfGroups; ++g)
+      if (needed[g]) stages.push_back(g);
+    // Each pipeline is created on a thread of its own: lavapipe translates and optimises a
+    // shader in the thread that creates its pipeline, and compiles it with LLVM at its first
+    // dispatch on the queue's thread, so the later pipelines' translation overlaps the earlier
+    // ones' compilation (docs/performance.md).
+    std::vector<std::future<Pipeline>> made;
+    for (std::uint32_t g : stages)
+      made.push_back(std::async(std::launch::async, [this, g, features, features2] {
+        return g == kNoStage
+                   ? make_pipeline(wavefront_spv, sizeof(wavefront_spv), features, features2,
+                                   wf_bindings_, 0u, wf_path_view_)
+                   : make_pipeline(wavefront_spv, sizeof(wavefront_spv), wf_shade_features(g),
+                                   wf_features2_, wf_bindings_, 1u, wf_path_view_);
+      }));
+    // In order, each compiled by an empty dispatch as soon as it is created; on an error every
+    // thread is waited for and what they made is destroyed before it is passed on.
+    std::exception_ptr error;
+    for (std::size_t i = 0; i < stages.size(); ++i) {
+      Pipeline p;
+      try {
+        p = made[i].get();
+      } catch (...) {
+        if (!error) error = std::current_exception();
+        continue;
+      }
+      (stages[i] == kNoStage ? wf_extend_ : wf_shade_[stages[i]]) = p;
+      if (error) continue;
+      try {
+        dispatch(p, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
+      } catch (...) {
+        error = std::current_exception();
+      }
+    }
+    if (error) {
+      ctx_.device.waitIdle();
+      destroy_pipeline(wf_extend_);
+      for (Pipeline& p : wf_shade_) destroy_pipeline(p);
+      ctx_.device.destroyBufferView(wf_path_view_);
+      ctx_.destroy_buffer(wf_paths_);
+      ctx_.destroy_buffer(wf_lists_);
+      for (auto& v : views_) ctx_.device.destroyBufferView(v);
+      for (auto& b : tables_) ctx_.destroy_buffer(b);
+      std::rethrow_exception(error);
+    }
     seconds_pipeline = since(t0);
     return;
   }
@@ -390,6 +435,7 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
     const auto t0 = Clock::now();
     bool hit = false;
     specialised = specialise_spirv_cached(spirv, bytes, words, hit);
+    const std::lock_guard<std::mutex> lock(stats_mutex_);  // pipelines made on several threads
     seconds_specialise += since(t0);
     spirv = specialised.data();
     bytes = specialised.size() * sizeof(std::uint32_t);
@@ -469,10 +515,7 @@ void GpuRenderer::dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint3
   counters[0] = counters[1] = 0;
 }
 
-GpuRenderer::Pipeline& GpuRenderer::wf_shade(std::uint32_t type) {
-  const std::uint32_t group = wf_group(type);
-  Pipeline& p = wf_shade_.at(group);
-  if (p.pipeline) return p;
+std::uint32_t GpuRenderer::wf_shade_features(std::uint32_t group) const {
   // The scene's material bits of the group's types; for the mixes, of the types they reach.
   std::uint32_t bits = wf_mix_bits_;
   if (group != wf_group(gpu::MATERIAL_MIX)) {
@@ -480,9 +523,15 @@ GpuRenderer::Pipeline& GpuRenderer::wf_shade(std::uint32_t type) {
     for (std::uint32_t t = 0; t < gpu::MATERIAL_TYPE_COUNT; ++t)
       if (wf_group(t) == group) bits |= material_feature(t);
   }
-  const std::uint32_t f = (wf_features_ & ~material_bits()) | (wf_features_ & bits);
-  p = make_pipeline(wavefront_spv, sizeof(wavefront_spv), f, wf_features2_, wf_bindings_, 1u,
-                    wf_path_view_);
+  return (wf_features_ & ~material_bits()) | (wf_features_ & bits);
+}
+
+GpuRenderer::Pipeline& GpuRenderer::wf_shade(std::uint32_t type) {
+  const std::uint32_t group = wf_group(type);
+  Pipeline& p = wf_shade_.at(group);
+  if (p.pipeline) return p;
+  p = make_pipeline(wavefront_spv, sizeof(wavefront_spv), wf_shade_features(group),
+                    wf_features2_, wf_bindings_, 1u, wf_path_view_);
   // lavapipe compiles at first dispatch (see the constructor's empty pass).
   dispatch(p, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
   return p;

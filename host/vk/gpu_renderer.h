@@ -3,6 +3,7 @@
 #pragma once
 #include <cstdint>
 #include <functional>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -148,6 +149,10 @@ class GpuRenderer {
   std::uint32_t globals_max_depth_ = 0;  // Globals image.z at the last render()
   /// \brief The shade pipeline of MATERIAL_* \p type, built if it is not yet.
   Pipeline& wf_shade(std::uint32_t type);
+  /// \brief The feature word shade group \p group is specialised for: the scene's, with only
+  ///        the material bits of the group's types.
+  std::uint32_t wf_shade_features(std::uint32_t group) const;
+  std::mutex stats_mutex_;  // seconds_specialise, added to by make_pipeline on several threads
   /// \brief Runs sample \p s of the \p n slots from \p slot0 through the wavefront stages.
   void wf_wave(std::uint32_t s, std::uint32_t slot0, std::uint32_t n);
   std::uint64_t rays_ = 0, nonfinite_ = 0;
