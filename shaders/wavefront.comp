@@ -2,9 +2,11 @@
 // The wavefront stages of the path tracer (docs/performance.md, issue 12; in the manner of
 // pbrt-v4's GPU path): the megakernel's path loop (include/integrator.glsl) cut at the
 // intersection, over one wave of paths (one sample of up to `capacity` pixel slots) kept in a
-// storage buffer (layout.h, WF_*). WF_STAGE 0 (extend): start the paths (iteration 0) or take
-// the active list, trace each path's ray, add the escaped radiance of a miss, and queue a hit
-// by its material's type. WF_STAGE 1 (shade): path_bounce over the queue of one material type
+// storage buffer (layout.h, WF_*). Built twice (CMakeLists.txt), one stage a module, so that
+// neither holds the other's code: BASALT_WF_STAGE 0 (extend): start the paths (iteration 0) or
+// take the active list, trace each path's ray, add the escaped radiance of a miss, and queue a
+// hit by its material's type. BASALT_WF_STAGE 1 (shade): path_bounce over the queue of one
+// material type
 // (pc.pad0), the pipeline specialised for that type alone, so that each dispatch runs one
 // material's code over its paths and compiles as a smaller shader. A path that ends adds its
 // radiance to its pixel (one path a pixel in a wave: no race).
@@ -17,8 +19,9 @@
 
 layout(local_size_x = 64) in;
 
-// Specialization constant 4: the stage (0 extend, 1 shade).
-layout(constant_id = 4) const uint WF_STAGE = 0u;
+#if !defined(BASALT_WF_STAGE) || (BASALT_WF_STAGE != 0 && BASALT_WF_STAGE != 1)
+#error "wavefront.comp is built with BASALT_WF_STAGE 0 (extend) or 1 (shade)"
+#endif
 
 layout(push_constant) uniform Pass {
   PassConstants pc;
@@ -145,6 +148,9 @@ void shade() {
 }
 
 void main() {
-  if (WF_STAGE == 0u) extend();
-  else shade();
+#if BASALT_WF_STAGE == 0
+  extend();
+#else
+  shade();
+#endif
 }

@@ -21,7 +21,8 @@
 #include "shaders/render.spv.h"
 #include "shaders/render_lean.spv.h"
 #include "shaders/trace.spv.h"
-#include "shaders/wavefront.spv.h"
+#include "shaders/wavefront_extend.spv.h"
+#include "shaders/wavefront_shade.spv.h"
 
 namespace basalt::vkx {
 
@@ -316,7 +317,8 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     needed[wf_group(gpu::MATERIAL_NONE)] = true;
     for (const gpu::Material& m : t.materials)
       if (m.type < gpu::MATERIAL_TYPE_COUNT) needed[wf_group(m.type)] = true;
-    std::vector<std::uint32_t> stages = {kNoStage};  // kNoStage: extend; else a shade group
+    constexpr std::uint32_t kExtend = kWfGroups;  // in stages: the extend stage
+    std::vector<std::uint32_t> stages = {kExtend};  // else a shade group
     for (std::uint32_t g = 0; g < kWfGroups; ++g)
       if (needed[g]) stages.push_back(g);
     // Each pipeline is created on a thread of its own: lavapipe translates and optimises a
@@ -326,11 +328,12 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     std::vector<std::future<Pipeline>> made;
     for (std::uint32_t g : stages)
       made.push_back(std::async(std::launch::async, [this, g, features, features2] {
-        return g == kNoStage
-                   ? make_pipeline(wavefront_spv, sizeof(wavefront_spv), features, features2,
-                                   wf_bindings_, 0u, wf_path_view_)
-                   : make_pipeline(wavefront_spv, sizeof(wavefront_spv), wf_shade_features(g),
-                                   wf_features2_, wf_bindings_, 1u, wf_path_view_);
+        return g == kExtend
+                   ? make_pipeline(wavefront_extend_spv, sizeof(wavefront_extend_spv), features,
+                                   features2, wf_bindings_, wf_path_view_)
+                   : make_pipeline(wavefront_shade_spv, sizeof(wavefront_shade_spv),
+                                   wf_shade_features(g), wf_features2_, wf_bindings_,
+                                   wf_path_view_);
       }));
     // In order, each compiled by an empty dispatch as soon as it is created; on an error every
     // thread is waited for and what they made is destroyed before it is passed on.
@@ -343,7 +346,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
         if (!error) error = std::current_exception();
         continue;
       }
-      (stages[i] == kNoStage ? wf_extend_ : wf_shade_[stages[i]]) = p;
+      (stages[i] == kExtend ? wf_extend_ : wf_shade_[stages[i]]) = p;
       if (error) continue;
       try {
         dispatch(p, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
@@ -392,7 +395,6 @@ GpuRenderer::~GpuRenderer() {
 GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std::size_t bytes,
                                                  std::uint32_t features, std::uint32_t features2,
                                                  const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings,
-                                                 std::uint32_t wf_stage,
                                                  vk::BufferView wf_paths) {
   auto& dev = ctx_.device;
   Pipeline p;
@@ -426,10 +428,9 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
   // all-features one is used as given.
   // Constant 0: FEATURES (the scene's feature word); constant 1: FEATURES2 (the second word,
   // the texture families of layout.h); constant 2: LEAF_PRIMS; constant 3: TEXEL_TABLES
-  // (bindings.glsl); constant 4, for the wavefront stages only: WF_STAGE.
-  std::vector<std::uint32_t> words = {features, features2, leaf_prims ? 1u : 0u,
-                                      texel_tables ? 1u : 0u};
-  if (wf_stage != kNoStage) words.push_back(wf_stage);
+  // (bindings.glsl).
+  const std::vector<std::uint32_t> words = {features, features2, leaf_prims ? 1u : 0u,
+                                            texel_tables ? 1u : 0u};
   std::vector<std::uint32_t> specialised;
   if (features != 0xffffffffu || features2 != 0xffffffffu) {
     const auto t0 = Clock::now();
@@ -530,8 +531,8 @@ GpuRenderer::Pipeline& GpuRenderer::wf_shade(std::uint32_t type) {
   const std::uint32_t group = wf_group(type);
   Pipeline& p = wf_shade_.at(group);
   if (p.pipeline) return p;
-  p = make_pipeline(wavefront_spv, sizeof(wavefront_spv), wf_shade_features(group),
-                    wf_features2_, wf_bindings_, 1u, wf_path_view_);
+  p = make_pipeline(wavefront_shade_spv, sizeof(wavefront_shade_spv), wf_shade_features(group),
+                    wf_features2_, wf_bindings_, wf_path_view_);
   // lavapipe compiles at first dispatch (see the constructor's empty pass).
   dispatch(p, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
   return p;

@@ -104,8 +104,7 @@ class GpuRenderer {
   Pipeline make_pipeline(const std::uint32_t* spirv, std::size_t bytes, std::uint32_t features,
                          std::uint32_t features2,
                          const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings,
-                         std::uint32_t wf_stage = kNoStage, vk::BufferView wf_paths = {});
-  static constexpr std::uint32_t kNoStage = 0xffffffffu;  // no specialization constant 4
+                         vk::BufferView wf_paths = {});
   void destroy_pipeline(Pipeline& p);
   void dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint32_t invocations);
 
