@@ -16,8 +16,8 @@
 namespace basalt::vkx {
 
 /// Which build of shaders/render.comp renders: `full` (every material kind) or `lean`
-/// (compiled with BASALT_LEAN_MATERIALS: MATERIAL_DIFFUSE only, for scenes whose feature
-/// bits have no FEATURE_MAT_* other than FEATURE_MAT_DIFFUSE); `automatic` picks lean
+/// (compiled with BASALT_LEAN_MATERIALS: MATERIAL_DIFFUSE and MATERIAL_OREN_NAYAR only, for
+/// scenes whose feature bits have no other FEATURE_MAT_*); `automatic` picks lean
 /// whenever it can render the features; the wavefront for scenes with a material beyond
 /// diffuse, Oren-Nayar and measured (not for the all-features pipeline, which stays full).
 /// All are specialised for the features.

@@ -16,8 +16,9 @@
 #include "bump.glsl"
 
 // The lean variant of the render shader (render_lean.spv, compiled with
-// -DBASALT_LEAN_MATERIALS=1; the host picks it when the scene's only material feature is
-// FEATURE_MAT_DIFFUSE) keeps MATERIAL_DIFFUSE only: the code of every other material kind
+// -DBASALT_LEAN_MATERIALS=1; the host picks it when the scene's only material features are
+// FEATURE_MAT_DIFFUSE and FEATURE_MAT_OREN_NAYAR) keeps MATERIAL_DIFFUSE and
+// MATERIAL_OREN_NAYAR (one lobe each) only: the code of every other material kind
 // and what only they need (lobe lists, mixes, interfaces, the stochastic lobes) is removed by
 // the preprocessor wherever `#if BSDF_ALL_MATERIALS` guards it. lavapipe inlines every call
 // before it folds FEATURES, so code gated by FEATURES alone still costs compile time.
@@ -219,7 +220,6 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
                       scale * clamp(slot_value(m, SLOT_DIFFUSE_REFLECTANCE, sp).xyz, 0.0, 1.0),
                       BSDF_REFLECTION | BSDF_DIFFUSE, 0u);
       break;
-#if BSDF_ALL_MATERIALS
     case MATERIAL_OREN_NAYAR:
       if (has_feature(FEATURE_MAT_OREN_NAYAR)) {
         vec3 kd = scale * slot_value(m, SLOT_ON_REFLECTANCE, sp).xyz;
@@ -238,6 +238,7 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
         }
       }
       break;
+#if BSDF_ALL_MATERIALS
     case MATERIAL_CONDUCTOR:
       if (has_feature(FEATURE_MAT_CONDUCTOR)) {
         Lobe L = lobe_new(LOBE_CONDUCTOR, scale, 0u, beck);
@@ -515,13 +516,13 @@ void lobe_query(Lobe L, uint q, vec3 wo, vec3 wi, vec3 u, uvec4 stream, out vec3
                           flags | (trans ? BSDF_TRANSMISSION : BSDF_REFLECTION), 1.0, false);
         }
         if (same == trans) break;
-#if BSDF_ALL_MATERIALS
         if (has_feature(LOBE_FEATURES_OREN_NAYAR) && L.tag == LOBE_OREN_NAYAR)
           f = vec3(oren_nayar_f(L.p0.xy, wo, wi));
+#if BSDF_ALL_MATERIALS
         else if (has_feature(LOBE_FEATURES_MEASURED) && L.tag == LOBE_MEASURED)
           f = measured_f(L.aux, L.p0.xyz, wo, wi);
-        else
 #endif
+        else
           f = vec3(INV_PI);
         pdf = cosine_pdf(wi);
         bs.f = f;
