@@ -259,23 +259,32 @@ def log_ticks(ax, ticker):
 
 
 class Deadline:
-    """When the charts must be done (None: no limit), and the slowest chart so far."""
+    """When the charts must be done (None: no limit), and the slowest chart so far per panel.
+
+    A chart's time grows with its panels (a device chart has one per knob, the spp chart one),
+    so the next chart is predicted from the slowest seconds per panel so far, with a margin of
+    half again and the report's own writing (a busy machine draws each chart slower than the
+    last: predicting a 12-panel chart from the 1-panel spp chart's time overran the budget)."""
+
+    MARGIN = 1.5     # predicted time, times this
+    RESERVE = 0.5    # seconds kept for write_report and the exit
 
     def __init__(self, seconds):
         self.end = None if seconds is None else time.monotonic() + seconds
-        self.slowest = 0.0
+        self.per_panel = 0.0
         self.skipped = []
 
-    def allows(self, name):
-        """True if a chart like the slowest so far still fits; else records name as skipped."""
-        if self.end is None or time.monotonic() + self.slowest < self.end:
+    def allows(self, name, panels=1):
+        """True if a chart of `panels` panels still fits; else records name as skipped."""
+        need = self.MARGIN * self.per_panel * panels + self.RESERVE
+        if self.end is None or time.monotonic() + need < self.end:
             return True
         self.skipped.append(name)
         return False
 
-    def took(self, t0):
-        """Records a chart started at t0 (time.monotonic())."""
-        self.slowest = max(self.slowest, time.monotonic() - t0)
+    def took(self, t0, panels=1):
+        """Records a chart of `panels` panels started at t0 (time.monotonic())."""
+        self.per_panel = max(self.per_panel, (time.monotonic() - t0) / max(1, panels))
 
 
 def draw_charts(study, outdir, plt, ticker, deadline):
@@ -290,7 +299,7 @@ def draw_charts(study, outdir, plt, ticker, deadline):
             if not shown:
                 continue
             chart = "chart-%s%s.png" % (device, tag)
-            if not deadline.allows(chart):
+            if not deadline.allows(chart, len(shown)):
                 continue
             t0 = time.monotonic()
             ncol = min(3, len(shown))
@@ -346,7 +355,7 @@ def draw_charts(study, outdir, plt, ticker, deadline):
             fig.savefig(os.path.join(outdir, chart), dpi=110)
             plt.close(fig)
             files.append(chart)
-            deadline.took(t0)
+            deadline.took(t0, len(shown))
     return files
 
 
