@@ -62,7 +62,7 @@ constexpr std::uint32_t kLeanFeatures =
     gpu::FEATURE_TRIANGLES | gpu::FEATURE_SPHERES | gpu::FEATURE_LIGHT_POINT |
     gpu::FEATURE_LIGHT_SPOT | gpu::FEATURE_LIGHT_DISTANT | gpu::FEATURE_LIGHT_INFINITE |
     gpu::FEATURE_LIGHT_AREA | gpu::FEATURE_MAT_DIFFUSE | gpu::FEATURE_MAT_OREN_NAYAR |
-    gpu::FEATURE_FILTER_GAUSSIAN |
+    gpu::FEATURE_MAT_MEASURED | gpu::FEATURE_FILTER_GAUSSIAN |
     gpu::FEATURE_THIN_LENS | gpu::FEATURE_SHADING_NORMALS |
     // Textures and image lights do not depend on the material code the lean build drops
     // (slots_resolve serves its diffuse material too; LeanVariant tests check the images).

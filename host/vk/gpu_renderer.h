@@ -16,8 +16,9 @@
 namespace basalt::vkx {
 
 /// Which build of shaders/render.comp renders: `full` (every material kind) or `lean`
-/// (compiled with BASALT_LEAN_MATERIALS: MATERIAL_DIFFUSE and MATERIAL_OREN_NAYAR only, for
-/// scenes whose feature bits have no other FEATURE_MAT_*); `automatic` picks lean
+/// (compiled with BASALT_LEAN_MATERIALS: MATERIAL_DIFFUSE, MATERIAL_OREN_NAYAR and
+/// MATERIAL_MEASURED only, for scenes whose feature bits have no other FEATURE_MAT_*);
+/// `automatic` picks lean
 /// whenever it can render the features; the wavefront for scenes with a material beyond
 /// diffuse, Oren-Nayar and measured (not for the all-features pipeline, which stays full).
 /// All are specialised for the features.

@@ -17,8 +17,8 @@
 
 // The lean variant of the render shader (render_lean.spv, compiled with
 // -DBASALT_LEAN_MATERIALS=1; the host picks it when the scene's only material features are
-// FEATURE_MAT_DIFFUSE and FEATURE_MAT_OREN_NAYAR) keeps MATERIAL_DIFFUSE and
-// MATERIAL_OREN_NAYAR (one lobe each) only: the code of every other material kind
+// FEATURE_MAT_DIFFUSE, FEATURE_MAT_OREN_NAYAR and FEATURE_MAT_MEASURED) keeps MATERIAL_DIFFUSE,
+// MATERIAL_OREN_NAYAR and MATERIAL_MEASURED (one lobe each) only: the code of every other kind
 // and what only they need (lobe lists, mixes, interfaces, the stochastic lobes) is removed by
 // the preprocessor wherever `#if BSDF_ALL_MATERIALS` guards it. lavapipe inlines every call
 // before it folds FEATURES, so code gated by FEATURES alone still costs compile time.
@@ -238,6 +238,14 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
         }
       }
       break;
+    case MATERIAL_MEASURED:
+      if (has_feature(FEATURE_MAT_MEASURED)) {
+        Lobe L = lobe_new(LOBE_MEASURED, scale, BSDF_REFLECTION | BSDF_GLOSSY, 0u);
+        L.aux = material_head(m).z;
+        L.p0.xyz = material_value(m, SLOT_MEASURED_DIMS).xyz;
+        c0 = L;
+      }
+      break;
 #if BSDF_ALL_MATERIALS
     case MATERIAL_CONDUCTOR:
       if (has_feature(FEATURE_MAT_CONDUCTOR)) {
@@ -386,14 +394,6 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
         c4.p0.z = eta;
       }
       break;
-    case MATERIAL_MEASURED:
-      if (has_feature(FEATURE_MAT_MEASURED)) {
-        Lobe L = lobe_new(LOBE_MEASURED, scale, BSDF_REFLECTION | BSDF_GLOSSY, 0u);
-        L.aux = material_head(m).z;
-        L.p0.xyz = material_value(m, SLOT_MEASURED_DIMS).xyz;
-        c0 = L;
-      }
-      break;
 #endif
     default:
       break;
@@ -518,10 +518,8 @@ void lobe_query(Lobe L, uint q, vec3 wo, vec3 wi, vec3 u, uvec4 stream, out vec3
         if (same == trans) break;
         if (has_feature(LOBE_FEATURES_OREN_NAYAR) && L.tag == LOBE_OREN_NAYAR)
           f = vec3(oren_nayar_f(L.p0.xy, wo, wi));
-#if BSDF_ALL_MATERIALS
         else if (has_feature(LOBE_FEATURES_MEASURED) && L.tag == LOBE_MEASURED)
           f = measured_f(L.aux, L.p0.xyz, wo, wi);
-#endif
         else
           f = vec3(INV_PI);
         pdf = cosine_pdf(wi);

@@ -97,12 +97,14 @@ TEST(TableFormats, SameImageWithoutLeafPrimsOrTexelViews) {
   }
 }
 
-// For scenes of diffuse and Oren-Nayar materials only the lean render shader (only those
-// compiled in) is the automatic choice and renders, bit for bit, what the full shader renders,
-// specialised or with every feature (materials-diffuse: matte spheres with sigma 0, 20 and 60).
+// For scenes of diffuse, Oren-Nayar and measured materials only the lean render shader (only
+// those compiled in) is the automatic choice and renders, bit for bit, what the full shader
+// renders, specialised or with every feature (materials-diffuse: matte spheres with sigma 0,
+// 20 and 60; materials-measured: MERL tables).
 TEST(LeanVariant, SameImageAsFullForDiffuseScenes) {
   for (const char* file : {"scenes/cornell-box.pbrt", "scenes/spheres-lights.pbrt",
-                           "scenes/igea-infinite.pbrt", "scenes/materials-diffuse.pbrt"}) {
+                           "scenes/igea-infinite.pbrt", "scenes/materials-diffuse.pbrt",
+                           "scenes/materials-measured.pbrt"}) {
     SceneTables t = tables_from_file(source_path(file), 64, 48);
     EXPECT_TRUE(vkx::GpuRenderer::lean_suffices(t.features)) << file;
     auto& ctx = gpu_context();
@@ -244,13 +246,12 @@ TEST(Wavefront, SameImageThroughSixtyFourInterfaces) {
 TEST(LeanVariant, NeverForOtherMaterials) {
   for (const char* file : {"scenes/material-zoo.pbrt", "scenes/materials-coated.pbrt",
                            "scenes/materials-conductors.pbrt", "scenes/materials-dielectrics.pbrt",
-                           "scenes/materials-measured.pbrt",
                            "scenes/materials-mix.pbrt", "scenes/materials-transmission.pbrt"}) {
     SceneTables t = tables_from_file(source_path(file), 8, 8);
     ASSERT_NE(t.features & ~(gpu::FEATURE_MAT_DIFFUSE | gpu::FEATURE_MAT_OREN_NAYAR |
-                             (gpu::FEATURE_MAT_OREN_NAYAR - 1u)),
+                             gpu::FEATURE_MAT_MEASURED | (gpu::FEATURE_MAT_OREN_NAYAR - 1u)),
               0u)
-        << file << " uses no material kind but diffuse and Oren-Nayar";
+        << file << " uses no material kind but diffuse, Oren-Nayar and measured";
     EXPECT_FALSE(vkx::GpuRenderer::lean_suffices(t.features)) << file;
     if (std::string(file) == "scenes/material-zoo.pbrt") {  // one pipeline build is enough
       vkx::GpuRenderer gpu(gpu_context(), t);
@@ -260,12 +261,13 @@ TEST(LeanVariant, NeverForOtherMaterials) {
                  std::invalid_argument)
         << file;
   }
-  // One bit of each material kind but diffuse and Oren-Nayar is enough to rule lean out.
+  // One bit of each material kind but diffuse, Oren-Nayar and measured rules lean out.
   for (std::uint32_t bit = 0; bit < gpu::FEATURE_COUNT; ++bit) {
     const std::uint32_t f = 1u << bit;
-    // bits 11..27 are material kinds (the lean build has Oren-Nayar, bit 11); 28.. are texture
-    // families and the image light, which the lean build supports
-    const bool material = f > gpu::FEATURE_MAT_OREN_NAYAR && f < gpu::FEATURE_TEXTURES;
+    // bits 11..27 are material kinds (the lean build has Oren-Nayar and measured); 28.. are
+    // texture families and the image light, which the lean build supports
+    const bool material = f > gpu::FEATURE_MAT_OREN_NAYAR && f < gpu::FEATURE_TEXTURES &&
+                          f != gpu::FEATURE_MAT_MEASURED;
     EXPECT_EQ(vkx::GpuRenderer::lean_suffices(gpu::FEATURE_MAT_DIFFUSE | f), !material) << bit;
   }
 }
