@@ -30,6 +30,13 @@ std::vector<std::uint32_t> specialise_spirv(const std::uint32_t* words, std::siz
       .RegisterPass(spvtools::CreateFoldSpecConstantOpAndCompositePass())
       .RegisterPass(spvtools::CreateDeadBranchElimPass())
       .RegisterPass(spvtools::CreateEliminateDeadFunctionsPass())
+      .RegisterPass(spvtools::CreateAggressiveDCEPass())
+      // A condition `has_feature(X) && c` is a phi after the passes above (glslang's
+      // short-circuit), constant but not folded, so the code under it stayed: conditional
+      // constant propagation folds it, and the dead code goes in a second round.
+      .RegisterPass(spvtools::CreateCCPPass())
+      .RegisterPass(spvtools::CreateDeadBranchElimPass())
+      .RegisterPass(spvtools::CreateEliminateDeadFunctionsPass())
       .RegisterPass(spvtools::CreateAggressiveDCEPass());
   // The module comes from glslang at build time; validating it again would cost more than the
   // passes (0.4 s for the render shader).

@@ -15,6 +15,7 @@
 
 #include "common/test_util.h"
 #include "cpu/intersect.h"
+#include "shaders/render_lean.spv.h"
 #include "shaders/trace.spv.h"
 #include "vk/gpu_renderer.h"
 #include "vk/specialise.h"
@@ -441,6 +442,31 @@ TEST(Specialisation, SpirvCacheRoundTripAndDamage) {
   EXPECT_FALSE(hit);
   unsetenv("BASALT_CACHE_DIR");
   std::filesystem::remove_all(dir);
+}
+
+// A feature test written `has_feature(X) && c` is a phi after dead-branch elimination
+// (glslang's short-circuit): the specialisation folds it too, so the code under it goes. The
+// lean render module for the Cornell box's features keeps neither the measured BRDF nor
+// Oren-Nayar (both behind such tests in bsdf.glsl), and keeps each when its material is in.
+TEST(Specialisation, FoldsShortCircuitFeatureTests) {
+  // Whether the module names a function whose name starts with `name` (its OpName string).
+  auto names = [](const std::vector<std::uint32_t>& words, const std::string& name) {
+    const char* bytes = reinterpret_cast<const char*>(words.data());
+    return std::string(bytes, words.size() * 4).find(name + "(") != std::string::npos;
+  };
+  const std::uint32_t cornell = gpu::FEATURE_TRIANGLES | gpu::FEATURE_LIGHT_AREA |
+                                gpu::FEATURE_MAT_DIFFUSE | gpu::FEATURE_FILTER_GAUSSIAN;
+  const auto specialise = [](std::uint32_t f) {
+    return vkx::specialise_spirv(render_lean_spv, sizeof(render_lean_spv), {f, 0u, 1u, 1u});
+  };
+  const std::vector<std::uint32_t> lean = specialise(cornell);
+  ASSERT_TRUE(names({render_lean_spv, render_lean_spv + sizeof(render_lean_spv) / 4},
+                    "measured_f"));  // the check can see the names
+  EXPECT_FALSE(names(lean, "measured_f"));
+  EXPECT_FALSE(names(lean, "oren_nayar_f"));
+  EXPECT_TRUE(names(lean, "path_bounce"));
+  EXPECT_TRUE(names(specialise(cornell | gpu::FEATURE_MAT_MEASURED), "measured_f"));
+  EXPECT_TRUE(names(specialise(cornell | gpu::FEATURE_MAT_OREN_NAYAR), "oren_nayar_f"));
 }
 
 // The cache stays bounded: past 64 MiB the least recently used entries go, down to 48 MiB, and
