@@ -306,8 +306,8 @@ void add_material_lobes(inout Bsdf b, uint m, vec3 scale, SurfacePoint sp) {
       break;
     case MATERIAL_COATED_DIFFUSE:
     case MATERIAL_COATED_CONDUCTOR:
-      if ((type == MATERIAL_COATED_DIFFUSE && has_feature(FEATURE_MAT_COATED_DIFFUSE)) ||
-          (type == MATERIAL_COATED_CONDUCTOR && has_feature(FEATURE_MAT_COATED_CONDUCTOR))) {
+      if ((has_feature(FEATURE_MAT_COATED_DIFFUSE) && type == MATERIAL_COATED_DIFFUSE) ||
+          (has_feature(FEATURE_MAT_COATED_CONDUCTOR) && type == MATERIAL_COATED_CONDUCTOR)) {
         bool cd = type == MATERIAL_COATED_DIFFUSE;
         Lobe L = lobe_new(cd ? LOBE_LAYERED_DIFFUSE : LOBE_LAYERED_CONDUCTOR, scale, 0u, beck);
         L.aux = (material_head(m).z & 0xffffu) | (material_head(m).w << 16u);

@@ -67,8 +67,9 @@ void camera_ray_through(vec2 p_film, vec2 p_lens, out vec3 o, out vec3 d) {
   d = safe_normalize(m[0].xyz * dir.x + m[1].xyz * dir.y + m[2].xyz * dir.z);
 }
 
-// Camera ray of sample s of pixel (px, py) (docs/path-spec.md section 2).
-CameraRay camera_ray(uint px, uint py, uint s) {
+// Camera ray of sample s of pixel (px, py) (docs/path-spec.md section 2), with its
+// differential rays if diffs (else they repeat the ray).
+CameraRay camera_ray(uint px, uint py, uint s, bool diffs) {
   bool thin_lens = (FEATURES & FEATURE_THIN_LENS) != 0u && globals.lens.y > 0.0;
   vec4 u = camera_samples(px, py, s, thin_lens ? 4u : 2u);  // filter, lens
   vec2 p_film = vec2(float(px) + 0.5, float(py) + 0.5) + filter_offset(u.x, u.y);
@@ -76,8 +77,13 @@ CameraRay camera_ray(uint px, uint py, uint s) {
   if (thin_lens) p_lens = globals.lens.y * concentric_disk(u.zw);
   CameraRay cr;
   camera_ray_through(p_film, p_lens, cr.o, cr.d);
-  camera_ray_through(p_film + vec2(1.0, 0.0), p_lens, cr.rx_o, cr.rx_d);
-  camera_ray_through(p_film + vec2(0.0, 1.0), p_lens, cr.ry_o, cr.ry_d);
+  if (diffs) {
+    camera_ray_through(p_film + vec2(1.0, 0.0), p_lens, cr.rx_o, cr.rx_d);
+    camera_ray_through(p_film + vec2(0.0, 1.0), p_lens, cr.ry_o, cr.ry_d);
+  } else {
+    cr.rx_o = cr.ry_o = cr.o;
+    cr.rx_d = cr.ry_d = cr.d;
+  }
   return cr;
 }
 

@@ -48,6 +48,11 @@ vec3 escaped_radiance(vec3 o, vec3 d, vec3 p_prev, bool unweighted, float pdf_pr
   return L;
 }
 
+// Whether paths carry ray differentials (textures-spec 3): only the texture footprint reads
+// them. A constant, so that the code under `RAY_DIFFS && ps.has_diff` goes with the
+// specialisation (has_diff alone is path state, which it cannot prove false).
+const bool RAY_DIFFS = (FEATURES & FEATURE_TEXTURES) != 0u;
+
 // The state of one path between bounces: everything path_bounce reads and writes (the
 // megakernel keeps it in registers, the wavefront stages in a storage buffer between
 // dispatches, shaders/wavefront.comp).
@@ -73,7 +78,9 @@ struct PathState {
 // The path of sample s of pixel (px, py) before its first intersection: the camera ray (with
 // its differentials, scaled by max(1/8, 1/sqrt(spp)), docs/textures-spec.md 3.1).
 PathState path_start(uint px, uint py, uint s) {
-  CameraRay cr = camera_ray(px, py, s);
+  // The differential rays feed the texture footprint alone (textures-spec 3): without
+  // textures no path uses them, and they are not traced.
+  CameraRay cr = camera_ray(px, py, s, RAY_DIFFS);
   PathState ps;
   ps.ray = Ray(cr.o, FLT_MAX, cr.d);
   ps.L = vec3(0.0);
@@ -87,9 +94,9 @@ PathState path_start(uint px, uint py, uint s) {
   ps.m_prev = 0.0;
   ps.depth = 0u;
   ps.crossings = 0u;
-  ps.has_diff = (FEATURES & FEATURE_TEXTURES) != 0u;
+  ps.has_diff = RAY_DIFFS;
   ps.rd = RayDiff(cr.rx_o, cr.rx_d, cr.ry_o, cr.ry_d);
-  if (ps.has_diff) ps.rd = scale_differentials(ps.rd, cr.o, cr.d, globals.min_dir_dx.w);
+  if (RAY_DIFFS) ps.rd = scale_differentials(ps.rd, cr.o, cr.d, globals.min_dir_dx.w);
   ps.px = px;
   ps.py = py;
   ps.s = s;
@@ -149,7 +156,7 @@ bool path_bounce(inout PathState ps, Hit hit) {
     ++ps.crossings;
     ps.specular = true;
     ps.ray = spawn_ray(sp.p, sp.ng, sp.m, ps.ray.d);
-    if (ps.has_diff) {  // pbrt-v4 SkipIntersection: the differential origins move to the hit
+    if (RAY_DIFFS && ps.has_diff) {  // pbrt-v4 SkipIntersection: the differential origins move to the hit
       ps.rd.rx_o = point_along(ps.rd.rx_o, ps.rd.rx_d, hit.t);
       ps.rd.ry_o = point_along(ps.rd.ry_o, ps.rd.ry_d, hit.t);
     }
@@ -237,7 +244,7 @@ bool path_bounce(inout PathState ps, Hit hit) {
                           BSDF_GLOSSY);
   bool spec_t = kind == (BSDF_SPECULAR | BSDF_TRANSMISSION);
   ps.ray = spawn_ray(sp.p, sp.ng, sp.m, wi);
-  if (ps.has_diff && (spec_t || kind == (BSDF_SPECULAR | BSDF_REFLECTION)))
+  if (RAY_DIFFS && ps.has_diff && (spec_t || kind == (BSDF_SPECULAR | BSDF_REFLECTION)))
     ps.has_diff = specular_differentials(sp.tex, ps.ray.o, sp.ns, sp.dndu, sp.dndv, wo, wi,
                                          spec_t, bs.eta, ps.rd);
   else

@@ -111,19 +111,26 @@ LightPick light_pick(float u, uint n, vec3 p, vec3 ns) {
     return LightPick(li, pmf);
   // u within the picked light's share of the cdf, uniform in [0, 1).
   float up = clamp((u - light_cdf[li]) / pmf, 0.0, ONE_MINUS_EPSILON);
-  float sum = 0.0;
-  for (uint k = 0u; k < n; ++k) sum += light_importance(k, p, ns);
-  if (!(sum > 0.0)) return LightPick(li, 0.0);
-  float target = up * sum, acc = 0.0, picked = 0.0;
-  for (uint k = 0u; k < n; ++k) {
+  // Two passes over the lights, the sum and then the pick, in one loop so that
+  // light_importance has one call site here (lavapipe inlines each).
+  float sum = 0.0, target = 0.0, acc = 0.0, picked = 0.0;
+  [[dont_unroll]] for (uint i = 0u; i < 2u * n; ++i) {
+    uint k = i < n ? i : i - n;
+    if (i == n) {
+      if (!(sum > 0.0)) return LightPick(li, 0.0);
+      target = up * sum;
+    }
     float w = light_importance(k, p, ns);
-    if (w > 0.0) {
+    if (i < n) {
+      sum += w;
+    } else if (w > 0.0) {
       li = k;
       picked = w;
       acc += w;
       if (target < acc) break;
     }
   }
+  if (n == 0u && !(sum > 0.0)) return LightPick(li, 0.0);
   return LightPick(li, uintBitsToFloat(globals.light_opts.y) * (picked / sum));
 }
 
@@ -197,8 +204,8 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
   switch (type) {
     case LIGHT_POINT:
     case LIGHT_SPOT:
-      if ((type == LIGHT_POINT && (FEATURES & FEATURE_LIGHT_POINT) != 0u) ||
-          (type == LIGHT_SPOT && (FEATURES & FEATURE_LIGHT_SPOT) != 0u)) {
+      if (((FEATURES & FEATURE_LIGHT_POINT) != 0u && type == LIGHT_POINT) ||
+          ((FEATURES & FEATURE_LIGHT_SPOT) != 0u && type == LIGHT_SPOT)) {
         vec3 pos = light_at(li).pos.xyz;
         vec3 dp = pos - p;
         float d2 = dot(dp, dp);
@@ -316,10 +323,10 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
 // section 7; pbrt-v4 PDF_Li). Not multiplied by the pmf.
 float light_pdf(uint li, vec3 p_prev, vec3 ng_prev, float m_prev, vec3 q, vec3 nl, vec3 wi) {
   uint type = light_at(li).type;
-  if (type == LIGHT_AREA_TRIANGLE && (FEATURES & FEATURE_TRIANGLES) != 0u) {
+  if ((FEATURES & FEATURE_TRIANGLES) != 0u && type == LIGHT_AREA_TRIANGLE) {
     return area_to_solid_angle(p_prev, q, nl, wi, light_at(li).params.x);
   }
-  if (type == LIGHT_AREA_SPHERE && (FEATURES & FEATURE_SPHERES) != 0u) {
+  if ((FEATURES & FEATURE_SPHERES) != 0u && type == LIGHT_AREA_SPHERE) {
     vec4 cr = sphere_at(light_at(li).prim).center_radius;
     vec3 pc = p_prev - cr.xyz;
     float d2 = dot(pc, pc);

@@ -85,13 +85,13 @@ void main() {
       r.f0.x = sampler_get(q.key.y, q.key.z, q.key.w, floatBitsToUint(q.extra.x));
       break;
     case PROBE_CAMERA: {
-      CameraRay cr = camera_ray(q.key.y, q.key.z, q.key.w);
+      CameraRay cr = camera_ray(q.key.y, q.key.z, q.key.w, true);
       r.f0 = vec4(cr.o, 0.0);
       r.f1 = vec4(cr.d, 0.0);
       break;
     }
     case PROBE_CAMERA_DIFF: {
-      CameraRay cr = camera_ray(q.key.y, q.key.z, q.key.w);
+      CameraRay cr = camera_ray(q.key.y, q.key.z, q.key.w, true);
       r.f0 = vec4(cr.rx_d, 0.0);
       r.f1 = vec4(cr.ry_d, 0.0);
       break;
@@ -163,7 +163,7 @@ void main() {
       // floatBitsToUint(extra.x): key.y = 0 with the camera ray's differentials, 1 approximated.
       // Modes 2, 3 (a perfectly specular bounce first) take a second pass of the loop; one
       // surface_point call site.
-      CameraRay cr = camera_ray(q.key.z, q.key.w, floatBitsToUint(q.extra.x));
+      CameraRay cr = camera_ray(q.key.z, q.key.w, floatBitsToUint(q.extra.x), true);
       Ray cam = Ray(cr.o, FLT_MAX, cr.d);
       RayDiff rd = scale_differentials(RayDiff(cr.rx_o, cr.rx_d, cr.ry_o, cr.ry_d), cr.o, cr.d,
                                        globals.min_dir_dx.w);
@@ -220,7 +220,7 @@ void main() {
         wo = sp.ns;
         r.u.x = 0u;
       } else {
-        CameraRay cr = camera_ray(q.key.z, q.key.w, floatBitsToUint(q.extra.x));
+        CameraRay cr = camera_ray(q.key.z, q.key.w, floatBitsToUint(q.extra.x), true);
         Ray cam = Ray(cr.o, FLT_MAX, cr.d);
         RayDiff rd = scale_differentials(RayDiff(cr.rx_o, cr.rx_d, cr.ry_o, cr.ry_d), cr.o,
                                          cr.d, globals.min_dir_dx.w);
