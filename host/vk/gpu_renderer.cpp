@@ -9,6 +9,8 @@
 #include <cstring>
 #include <exception>
 #include <future>
+#include <atomic>
+#include <thread>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -322,20 +324,33 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     std::vector<std::uint32_t> stages = {kExtend};  // else a shade group
     for (std::uint32_t g = 0; g < kWfGroups; ++g)
       if (needed[g]) stages.push_back(g);
-    // Each pipeline is created on a thread of its own: lavapipe translates and optimises a
-    // shader in the thread that creates its pipeline, and compiles it with LLVM at its first
-    // dispatch on the queue's thread, so the later pipelines' translation overlaps the earlier
-    // ones' compilation (docs/performance.md).
+    // The pipelines are created on worker threads: lavapipe translates and optimises a shader
+    // in the thread that creates its pipeline, and compiles it with LLVM at its first dispatch
+    // on the queue's thread, so the later pipelines' translation overlaps the earlier ones'
+    // compilation (docs/performance.md). One worker a core, taking the pipelines in order: with
+    // fewer cores than pipelines each is then made by the time the queue's thread reaches it,
+    // instead of all being made slowly at once (material-zoo on 2 cores: 3.45 -> 3.08 s).
+    const std::size_t cores = std::max(2u, std::thread::hardware_concurrency());
+    const std::size_t workers = std::min(stages.size(), cores);
+    std::vector<std::promise<Pipeline>> promised(stages.size());
     std::vector<std::future<Pipeline>> made;
-    for (std::uint32_t g : stages)
-      made.push_back(std::async(std::launch::async, [this, g, features, features2] {
-        return g == kExtend
-                   ? make_pipeline(wavefront_extend_spv, sizeof(wavefront_extend_spv), features,
-                                   features2, wf_bindings_, wf_path_view_)
-                   : make_pipeline(wavefront_shade_spv, sizeof(wavefront_shade_spv),
-                                   wf_shade_features(g), wf_features2_, wf_bindings_,
-                                   wf_path_view_);
-      }));
+    for (auto& p : promised) made.push_back(p.get_future());
+    std::atomic<std::size_t> next{0};
+    std::vector<std::thread> threads;
+    for (std::size_t w = 0; w < workers; ++w)
+      threads.emplace_back([&, features, features2] {
+        for (std::size_t i; (i = next++) < stages.size();) try {
+            const std::uint32_t g = stages[i];
+            promised[i].set_value(
+                g == kExtend ? make_pipeline(wavefront_extend_spv, sizeof(wavefront_extend_spv),
+                                             features, features2, wf_bindings_, wf_path_view_)
+                             : make_pipeline(wavefront_shade_spv, sizeof(wavefront_shade_spv),
+                                             wf_shade_features(g), wf_features2_, wf_bindings_,
+                                             wf_path_view_));
+          } catch (...) {
+            promised[i].set_exception(std::current_exception());
+          }
+      });
     // In order, each compiled by an empty dispatch as soon as it is created; on an error every
     // thread is waited for and what they made is destroyed before it is passed on.
     std::exception_ptr error;
@@ -355,6 +370,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
         error = std::current_exception();
       }
     }
+    for (std::thread& t : threads) t.join();
     if (error) {
       ctx_.device.waitIdle();
       destroy_pipeline(wf_extend_);
