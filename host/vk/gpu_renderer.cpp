@@ -313,13 +313,19 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     const std::vector<bool> reached = materials_reached(t.materials, std::move(mixes));
     for (std::uint32_t m = 0; m < t.materials.size(); ++m)
       if (reached[m]) wf_mix_bits_ |= material_feature(t.materials[m].type);
+    // Mixes that reach no layered material are shaded by group 0's pipeline, specialised for
+    // their types as well: its code is then theirs, and the scene makes one pipeline fewer
+    // (each pipeline repeats the path's shared code; the queues stay per type).
+    const std::uint32_t layered = material_feature(gpu::MATERIAL_COATED_DIFFUSE) |
+                                  material_feature(gpu::MATERIAL_COATED_CONDUCTOR);
+    wf_mix_group_ = (wf_mix_bits_ & layered) == 0 ? 0u : wf_group(gpu::MATERIAL_MIX);
     wf_shade_.resize(kWfGroups);
     // The stages the scene needs: extend, and the shade group of each material type present
     // (and MATERIAL_NONE's, for shapes without a material).
     std::vector<bool> needed(kWfGroups, false);
-    needed[wf_group(gpu::MATERIAL_NONE)] = true;
+    needed[wf_group_of(gpu::MATERIAL_NONE)] = true;
     for (const gpu::Material& m : t.materials)
-      if (m.type < gpu::MATERIAL_TYPE_COUNT) needed[wf_group(m.type)] = true;
+      if (m.type < gpu::MATERIAL_TYPE_COUNT) needed[wf_group_of(m.type)] = true;
     constexpr std::uint32_t kExtend = kWfGroups;  // in stages: the extend stage
     std::vector<std::uint32_t> stages = {kExtend};  // else a shade group
     for (std::uint32_t g = 0; g < kWfGroups; ++g)
@@ -533,19 +539,22 @@ void GpuRenderer::dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint3
   counters[0] = counters[1] = 0;
 }
 
+std::uint32_t GpuRenderer::wf_group_of(std::uint32_t type) const {
+  return wf_group(type) == wf_group(gpu::MATERIAL_MIX) ? wf_mix_group_ : wf_group(type);
+}
+
 std::uint32_t GpuRenderer::wf_shade_features(std::uint32_t group) const {
-  // The scene's material bits of the group's types; for the mixes, of the types they reach.
-  std::uint32_t bits = wf_mix_bits_;
-  if (group != wf_group(gpu::MATERIAL_MIX)) {
-    bits = 0;
+  // The scene's material bits of the group's types; for the mixes' group, of the types they
+  // reach as well.
+  std::uint32_t bits = group == wf_mix_group_ ? wf_mix_bits_ : 0u;
+  if (group != wf_group(gpu::MATERIAL_MIX))
     for (std::uint32_t t = 0; t < gpu::MATERIAL_TYPE_COUNT; ++t)
       if (wf_group(t) == group) bits |= material_feature(t);
-  }
   return (wf_features_ & ~material_bits()) | (wf_features_ & bits);
 }
 
 GpuRenderer::Pipeline& GpuRenderer::wf_shade(std::uint32_t type) {
-  const std::uint32_t group = wf_group(type);
+  const std::uint32_t group = wf_group_of(type);
   Pipeline& p = wf_shade_.at(group);
   if (p.pipeline) return p;
   p = make_pipeline(wavefront_shade_spv, sizeof(wavefront_shade_spv), wf_shade_features(group),

@@ -145,8 +145,13 @@ class GpuRenderer {
   std::uint32_t wf_capacity_ = 0;
   std::uint32_t wf_features_ = 0, wf_features2_ = 0;  // the words the stages specialise
   std::uint32_t wf_mix_bits_ = 0;  // material bits of the types the scene's mixes reach
+  std::uint32_t wf_mix_group_ = 2;  // the shade group of the mixes: 2, or 0 (none reaches a
+                                    // layered material)
   std::vector<std::pair<std::uint32_t, Buffer*>> wf_bindings_;
   std::uint32_t globals_max_depth_ = 0;  // Globals image.z at the last render()
+  /// \brief The shade group whose pipeline shades MATERIAL_* \p type (wf_group, with the
+  /// mixes in wf_mix_group_).
+  std::uint32_t wf_group_of(std::uint32_t type) const;
   /// \brief The shade pipeline of MATERIAL_* \p type, built if it is not yet.
   Pipeline& wf_shade(std::uint32_t type);
   /// \brief The feature word shade group \p group is specialised for: the scene's, with only
