@@ -11,7 +11,8 @@ namespace basalt::vkx {
 /// \brief The module \p words (\p bytes long) with its 32-bit specialization constants 0, 1,
 /// ... set to \p constants (the feature words, then the table-format constants of
 /// shaders/include/bindings.glsl) and frozen, and the branches, functions and code they make
-/// dead removed (SPIRV-Tools: fold, dead-branch elimination, dead functions, aggressive DCE).
+/// dead removed (SPIRV-Tools: fold, dead-branch elimination, dead functions, aggressive DCE,
+/// then conditional constant propagation for the short-circuited tests and the same again).
 /// The result computes what the driver would with those constants, in less code: lavapipe
 /// inlines every call before it folds a constant, so dead code costs it time and memory.
 /// \throws std::runtime_error if SPIRV-Tools rejects the module.
