@@ -114,6 +114,7 @@ int run(const Options& opt) {
   // The parsed meshes are freed as they are flattened: nothing after this reads them.
   basalt::SceneTables tables = basalt::build_tables_releasing_meshes(scene, &times, &warnings);
   for (const auto& w : warnings) std::cerr << w << "\n";
+  if (opt.device != "cpu") tables.cpu_wide.reset();  // the CPU reference's own tree
   // Quality knobs (docs/textures.md): --texture-filter, --noise-octaves.
   static const char* kFilters[] = {"point", "bilinear", "trilinear", "ewa"};
   int filter = -1;

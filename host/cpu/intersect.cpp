@@ -6,6 +6,11 @@
 #include <cmath>
 #include <limits>
 #include <utility>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+#include "cpu/wide_bvh.h"
 
 namespace basalt::cpu {
 namespace {
@@ -144,14 +149,14 @@ inline PrimHit prim_hit(const SceneTables& s, std::uint32_t ref, const RayBox& r
 /// included, and misses the box otherwise (spec section 3): with the finite 1e-20 stand-in, a
 /// ray lying in a face plane would leave the slab at t = 0 and miss the primitives on that
 /// face ahead of it (pbrt-v4's 0 * inf = NaN drops the axis instead).
-inline bool slab(const gpu::BvhNode& n, const RayBox& rb, float tlimit, float& tnear) {
-  const glm::vec3 ta = (n.lo - rb.o) * rb.inv;
-  const glm::vec3 tb = (n.hi - rb.o) * rb.inv;
+inline bool slab_box(glm::vec3 lo, glm::vec3 hi, const RayBox& rb, float tlimit, float& tnear) {
+  const glm::vec3 ta = (lo - rb.o) * rb.inv;
+  const glm::vec3 tb = (hi - rb.o) * rb.inv;
   glm::vec3 tmin = glm::min(ta, tb), tmax = glm::max(ta, tb);
   if (rb.any_parallel)
     for (int i = 0; i < 3; ++i) {
       if (!rb.parallel[i]) continue;
-      if (!(rb.o[i] >= n.lo[i] && rb.o[i] <= n.hi[i])) return false;
+      if (!(rb.o[i] >= lo[i] && rb.o[i] <= hi[i])) return false;
       tmin[i] = -std::numeric_limits<float>::infinity();
       tmax[i] = std::numeric_limits<float>::infinity();
     }
@@ -159,6 +164,11 @@ inline bool slab(const gpu::BvhNode& n, const RayBox& rb, float tlimit, float& t
   const float t1 = std::min(tmax.x, std::min(tmax.y, tmax.z)) * SLAB_FAR_SCALE;
   tnear = t0;
   return t0 <= t1 && t0 <= tlimit && t1 >= 0.0f;
+}
+
+/// slab_box of a binary node.
+inline bool slab(const gpu::BvhNode& n, const RayBox& rb, float tlimit, float& tnear) {
+  return slab_box(n.lo, n.hi, rb, tlimit, tnear);
 }
 
 constexpr int STACK_SIZE = 64;
@@ -270,6 +280,237 @@ bool any_from(const SceneTables& s, const Ray& ray, const RayBox& rb, std::uint3
   }
 }
 
+// ---- the four-wide tree (cpu/wide_bvh.h) ----------------------------------------------------
+
+typedef float V4f __attribute__((vector_size(16)));
+typedef std::int32_t V4i __attribute__((vector_size(16)));
+
+/// Bit i set where lane i of \p m is true (all bits set).
+inline unsigned lane_mask(V4i m) {
+#if defined(__SSE2__)
+  return unsigned(_mm_movemask_ps(_mm_castsi128_ps(__m128i(m))));
+#else
+  return unsigned(m[0] & 1) | unsigned(m[1] & 2) | unsigned(m[2] & 4) | unsigned(m[3] & 8);
+#endif
+}
+
+/// The ray's origin and reciprocal direction, each component in all four lanes.
+struct RayBox4 {
+  V4f o[3], inv[3];
+  explicit RayBox4(const RayBox& rb) {
+    for (int k = 0; k < 3; ++k) {
+      o[k] = V4f{rb.o[k], rb.o[k], rb.o[k], rb.o[k]};
+      inv[k] = V4f{rb.inv[k], rb.inv[k], rb.inv[k], rb.inv[k]};
+    }
+  }
+};
+
+/// slab_box on the four slots of \p n at once: the same operations in the same order per
+/// lane (glm::min / max and std::min / max written as their comparisons), so each lane's
+/// answer is slab_box's bit for bit. Returns the mask of slots entered, their entry distances
+/// in tnear. Rays parallel to an axis take slab_box per slot (its inside rule).
+inline unsigned slab4(const WideNode& n, const RayBox& rb, const RayBox4& r4, float tlimit,
+                      float tnear[4]) {
+  if (rb.any_parallel) {
+    unsigned m = 0;
+    for (int i = 0; i < 4; ++i)
+      if (slab_box(glm::vec3(n.lo[0][i], n.lo[1][i], n.lo[2][i]),
+                   glm::vec3(n.hi[0][i], n.hi[1][i], n.hi[2][i]), rb, tlimit, tnear[i]))
+        m |= 1u << i;
+    return m;
+  }
+  V4f tmin[3], tmax[3];
+  for (int k = 0; k < 3; ++k) {
+    V4f lo, hi;
+    __builtin_memcpy(&lo, n.lo[k], sizeof lo);
+    __builtin_memcpy(&hi, n.hi[k], sizeof hi);
+    const V4f ta = (lo - r4.o[k]) * r4.inv[k];
+    const V4f tb = (hi - r4.o[k]) * r4.inv[k];
+    tmin[k] = (tb < ta) ? tb : ta;  // glm::min(ta, tb)
+    tmax[k] = (ta < tb) ? tb : ta;  // glm::max(ta, tb)
+  }
+  const V4f min_yz = (tmin[1] < tmin[2]) ? tmin[2] : tmin[1];  // std::max(y, z)
+  const V4f t0 = (tmin[0] < min_yz) ? min_yz : tmin[0];       // std::max(x, .)
+  const V4f max_yz = (tmax[2] < tmax[1]) ? tmax[2] : tmax[1];  // std::min(y, z)
+  const V4f far = V4f{SLAB_FAR_SCALE, SLAB_FAR_SCALE, SLAB_FAR_SCALE, SLAB_FAR_SCALE};
+  const V4f t1 = ((max_yz < tmax[0]) ? max_yz : tmax[0]) * far;  // std::min(x, .)
+  const V4f limit = V4f{tlimit, tlimit, tlimit, tlimit};
+  const V4f zero = V4f{0.0f, 0.0f, 0.0f, 0.0f};
+  __builtin_memcpy(tnear, &t0, sizeof t0);
+  return lane_mask((t0 <= t1) & (t0 <= limit) & (t1 >= zero));
+}
+
+/// The ray's constants of the triangle test (RayTri) in four lanes.
+struct RayTri4 {
+  int kx, ky, kz;
+  V4f o[3];
+  V4f sx, sy, sz;
+  explicit RayTri4(const RayTri& r) : kx(r.kx), ky(r.ky), kz(r.kz) {
+    for (int k = 0; k < 3; ++k) o[k] = V4f{r.o[k], r.o[k], r.o[k], r.o[k]};
+    sx = V4f{r.sx, r.sx, r.sx, r.sx};
+    sy = V4f{r.sy, r.sy, r.sy, r.sy};
+    sz = V4f{r.sz, r.sz, r.sz, r.sz};
+  }
+};
+
+/// triangle_hit on the four lanes of \p pk: each lane's operations are triangle_hit's, in its
+/// order and without contraction, so t and the barycentrics are its bits. Returns the mask of
+/// lanes hit (t > 0, no upper bound); unused lanes (NaN corners) miss.
+inline unsigned triangle_hit4(const TriPacket& pk, const RayTri4& r, V4f& t, V4f& b1, V4f& b2) {
+  V4f p[3][3];  // corner, axis
+  for (int c = 0; c < 3; ++c)
+    for (int a = 0; a < 3; ++a) __builtin_memcpy(&p[c][a], pk.p[c][a], sizeof(V4f));
+  // Translate to the ray origin, permute (largest |d| along z), shear.
+  V4f x[3], y[3], z[3];
+  for (int c = 0; c < 3; ++c) {
+    x[c] = p[c][r.kx] - r.o[r.kx];
+    y[c] = p[c][r.ky] - r.o[r.ky];
+    z[c] = p[c][r.kz] - r.o[r.kz];
+    x[c] = x[c] + r.sx * z[c];
+    y[c] = y[c] + r.sy * z[c];
+  }
+  const V4f zero = V4f{0.0f, 0.0f, 0.0f, 0.0f};
+  const V4f e0 = x[1] * y[2] - y[1] * x[2];
+  const V4f e1 = x[2] * y[0] - y[2] * x[0];
+  const V4f e2 = x[0] * y[1] - y[0] * x[1];
+  const V4i neg = (e0 < zero) | (e1 < zero) | (e2 < zero);
+  const V4i pos = (e0 > zero) | (e1 > zero) | (e2 > zero);
+  const V4f det = e0 + e1 + e2;
+  const V4f ts = e0 * (z[0] * r.sz) + e1 * (z[1] * r.sz) + e2 * (z[2] * r.sz);
+  const V4f one = V4f{1.0f, 1.0f, 1.0f, 1.0f};
+  const V4f inv_det = one / det;
+  t = ts * inv_det;
+  b1 = e1 * inv_det;
+  b2 = e2 * inv_det;
+  // cross(p0 - p2, p1 - p2) == 0: a degenerate triangle misses (as glm::cross computes it).
+  const V4f ux = p[0][0] - p[2][0], uy = p[0][1] - p[2][1], uz = p[0][2] - p[2][2];
+  const V4f vx = p[1][0] - p[2][0], vy = p[1][1] - p[2][1], vz = p[1][2] - p[2][2];
+  const V4f cx = uy * vz - vy * uz, cy = uz * vx - vz * ux, cz = ux * vy - vx * uy;
+  const V4i degenerate = (cx == zero) & (cy == zero) & (cz == zero);
+  const V4i miss = (neg & pos) | (det == zero) | ((det < zero) & (ts >= zero)) |
+                   ((det > zero) & (ts <= zero)) | degenerate;
+  return lane_mask(~miss & (t > zero));
+}
+
+/// Closest-hit traversal of the four-wide tree: the slots entered, nearest first.
+void closest_wide(const SceneTables& s, const WideBvh& w, const RayBox& rb, ClosestState& st) {
+  struct Entry {
+    std::uint32_t child, count;  // as WideNode::child / count
+    float t;
+  };
+  // A wide level pushes at most three entries; build_cpu_wide_bvh bounds the depth.
+  Entry stack[3 * kWideMaxDepth + 1];
+  int sp = 0;
+  const RayBox4 r4(rb);
+  const RayTri4 r4t(rb.tri);
+  Entry cur{0, 0, 0.0f};
+  for (;;) {
+    if (cur.count == 0) {
+      const WideNode& n = w.nodes[cur.child];
+      float tn[4];
+      unsigned m = slab4(n, rb, r4, st.best_t, tn);
+      if (m != 0) {
+        // Entered slots by entry distance (insertion sort; ties keep the slot order).
+        Entry e[4];
+        int k = 0;
+        for (; m != 0; m &= m - 1) {
+          const int i = __builtin_ctz(m);
+          Entry x{n.child[i], n.count[i], tn[i]};
+          int j = k++;
+          for (; j > 0 && x.t < e[j - 1].t; --j) e[j] = e[j - 1];
+          e[j] = x;
+        }
+        for (int j = k - 1; j > 0; --j) stack[sp++] = e[j];
+        cur = e[0];
+        continue;
+      }
+    } else if (cur.count & kWidePacketLeaf) {
+      const std::uint32_t end = cur.child + (cur.count & ~kWidePacketLeaf);
+      for (std::uint32_t k = cur.child; k < end; ++k) {
+        const TriPacket& pk = w.packets[k];
+        V4f t, b1, b2;
+        for (unsigned m = triangle_hit4(pk, r4t, t, b1, b2); m != 0; m &= m - 1) {
+          const int i = __builtin_ctz(m);
+          const std::uint32_t ref = pk.ref[i];
+          if (t[i] < st.tmax && (t[i] < st.best_t || (t[i] == st.best_t && ref < st.best_ref))) {
+            st.best_t = t[i];
+            st.best_ref = ref;
+            st.b1 = b1[i];
+            st.b2 = b2[i];
+          }
+        }
+      }
+    } else {
+      for (std::uint32_t i = cur.child; i < cur.child + cur.count; ++i) {
+        const std::uint32_t ref = s.prim_refs[i];
+        const PrimHit h = prim_hit(s, ref, rb);
+        // Spec section 3: smallest t, then the smaller primitive reference.
+        if (h.t > 0.0f && h.t < st.tmax &&
+            (h.t < st.best_t || (h.t == st.best_t && ref < st.best_ref))) {
+          st.best_t = h.t;
+          st.best_ref = ref;
+          st.b1 = h.b1;
+          st.b2 = h.b2;
+        }
+      }
+    }
+    // Pop the next slot whose entry distance can still hold the closest hit.
+    for (;;) {
+      if (sp == 0) return;
+      cur = stack[--sp];
+      if (cur.t <= st.best_t) break;
+    }
+  }
+}
+
+/// Any-hit traversal of the four-wide tree: true at the first hit with 0 < t < tmax.
+bool any_wide(const SceneTables& s, const WideBvh& w, const Ray& ray, const RayBox& rb) {
+  struct Entry {
+    std::uint32_t child, count;
+  };
+  Entry stack[3 * kWideMaxDepth + 1];
+  int sp = 0;
+  const RayBox4 r4(rb);
+  const RayTri4 r4t(rb.tri);
+  Entry cur{0, 0};
+  for (;;) {
+    if (cur.count == 0) {
+      const WideNode& n = w.nodes[cur.child];
+      float tn[4];
+      unsigned m = slab4(n, rb, r4, ray.tmax, tn);
+      if (m != 0) {
+        const int first = __builtin_ctz(m);
+        for (m &= m - 1; m != 0; m &= m - 1) {
+          const int i = __builtin_ctz(m);
+          stack[sp++] = Entry{n.child[i], n.count[i]};
+        }
+        cur = Entry{n.child[first], n.count[first]};
+        continue;
+      }
+    } else if (cur.count & kWidePacketLeaf) {
+      const std::uint32_t end = cur.child + (cur.count & ~kWidePacketLeaf);
+      for (std::uint32_t k = cur.child; k < end; ++k) {
+        V4f t, b1, b2;
+        const V4f tmax = V4f{ray.tmax, ray.tmax, ray.tmax, ray.tmax};
+        if (triangle_hit4(w.packets[k], r4t, t, b1, b2) & lane_mask(t < tmax)) return true;
+      }
+    } else {
+      for (std::uint32_t i = cur.child; i < cur.child + cur.count; ++i) {
+        const PrimHit h = prim_hit(s, s.prim_refs[i], rb);
+        if (h.t > 0.0f && h.t < ray.tmax) return true;
+      }
+    }
+    if (sp == 0) return false;
+    cur = stack[--sp];
+  }
+}
+
+/// The CPU reference's wide tree of \p scene when it was built from the present node array.
+inline const WideBvh* wide_of(const SceneTables& scene) {
+  const WideBvh* w = scene.cpu_wide.get();
+  return w && w->source_nodes == scene.nodes.size() ? w : nullptr;
+}
+
 }  // namespace
 
 PrimHit intersect_triangle(glm::vec3 o, glm::vec3 d, float tmax, glm::vec3 p0, glm::vec3 p1,
@@ -299,7 +540,11 @@ Hit intersect_closest(const SceneTables& scene, const Ray& ray) {
   float tnear;
   if (!slab(scene.nodes[0], rb, ray.tmax, tnear)) return hit;
   ClosestState st{ray.tmax, ray.tmax};
-  closest_from(scene, ray, rb, 0, st);
+  if (const WideBvh* w = wide_of(scene)) {
+    closest_wide(scene, *w, rb, st);
+  } else {
+    closest_from(scene, ray, rb, 0, st);
+  }
   if (st.best_ref == gpu::INVALID_INDEX) return hit;
   hit.t = st.best_t;
   hit.prim = st.best_ref;
@@ -313,6 +558,7 @@ bool intersect_any(const SceneTables& scene, const Ray& ray) {
   const RayBox rb(ray);
   float tnear;
   if (!slab(scene.nodes[0], rb, ray.tmax, tnear)) return false;
+  if (const WideBvh* w = wide_of(scene)) return any_wide(scene, *w, ray, rb);
   return any_from(scene, ray, rb, 0);
 }
 

@@ -2,6 +2,8 @@
 // materials, lights with their selection distribution, the filter table and the BVH.
 #include "scene/tables.h"
 
+#include "cpu/wide_bvh.h"
+
 #include <algorithm>
 #include <bit>
 #include <cfloat>
@@ -790,14 +792,15 @@ SceneTables build_tables_impl(const Scene& scene, Scene* release, BuildTimes* ti
     bvh_options.bins = scene.bvh_bins;
     bvh_options.max_leaf = scene.bvh_max_leaf;
     Bvh bvh = build_bvh(std::move(bounds), bvh_options);
-    const auto stop = std::chrono::steady_clock::now();
-    if (times) times->seconds_bvh = std::chrono::duration<double>(stop - start).count();
     t.nodes = std::move(bvh.nodes);
     t.prim_refs.resize(bvh.prim_order.size());
     for (std::size_t i = 0; i < t.prim_refs.size(); ++i) {
       const std::uint32_t p = bvh.prim_order[i];
       t.prim_refs[i] = p < tri_count ? p : (p - tri_count) | gpu::PRIM_SPHERE_BIT;
     }
+    if (!t.nodes.empty()) t.cpu_wide = cpu::build_cpu_wide_bvh(t);
+    const auto stop = std::chrono::steady_clock::now();
+    if (times) times->seconds_bvh = std::chrono::duration<double>(stop - start).count();
   }
 
   // ---- filter ----------------------------------------------------------------------------
@@ -1087,7 +1090,7 @@ std::uint64_t table_bytes(const SceneTables& t) {
   return sizeof(t.globals) + b(t.nodes) + b(t.prim_refs) + b(t.triangles) + b(t.vertices) +
          b(t.meshes) + b(t.spheres) + b(t.materials) + b(t.lights) + b(t.light_cdf) +
          b(t.filter_cdf) + b(t.measured) + b(t.textures) + b(t.mip_levels) + b(t.texels) +
-         b(t.tex_data) + b(t.sampler_data);
+         b(t.tex_data) + b(t.sampler_data) + (t.cpu_wide ? cpu::wide_bvh_bytes(*t.cpu_wide) : 0);
 }
 
 }  // namespace basalt

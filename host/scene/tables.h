@@ -2,6 +2,7 @@
 // Built once from a parsed Scene; uploaded as is to the GPU, read as is by the CPU reference.
 #pragma once
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -9,6 +10,10 @@
 #include "scene.h"
 
 namespace basalt {
+
+namespace cpu {
+struct WideBvh;
+}
 
 struct SceneTables {
   gpu::Globals globals{};
@@ -29,6 +34,10 @@ struct SceneTables {
   std::vector<float> texels;              // image levels, linear, channel-interleaved
   std::vector<float> tex_data;            // shared tables (docs/textures-spec.md 5)
   std::vector<std::uint32_t> sampler_data;  // primes (docs/sampler-spec.md 3)
+  // The CPU reference's own four-wide tree over nodes (cpu/wide_bvh.h), made by build_tables;
+  // a device's renderer does not read it (the command line drops it before the upload). A
+  // tree whose binary nodes were replaced since is not used (cpu::intersect_* walk nodes).
+  std::shared_ptr<const cpu::WideBvh> cpu_wide;
   std::uint32_t features = 0;     // FEATURE_* bits
   std::uint32_t features2 = 0;    // FEATURE2_* bits
 
@@ -41,8 +50,9 @@ struct BuildTimes {
   double seconds_bvh = 0.0;
 };
 
-/// \brief Bytes of every table of \p t (the vectors' contents, Globals included): what the CPU
-///        reference renders from, and what a device's tables are built from.
+/// \brief Bytes of every table of \p t (the vectors' contents, Globals included, and the CPU
+///        reference's wide tree when present): what the CPU reference renders from, and what a
+///        device's tables are built from.
 std::uint64_t table_bytes(const SceneTables& t);
 
 /// \brief Flattens a parsed scene into GPU tables and builds the BVH (binned SAH).

@@ -9,6 +9,7 @@
 #include <glm/glm.hpp>
 
 #include "cpu/sampling.h"
+#include "cpu/wide_bvh.h"
 #include "scene/tables.h"
 
 namespace basalt::cpu::test_scene {
@@ -130,6 +131,7 @@ struct TestScene {
     if (t.prim_refs.empty()) return;
     t.nodes.resize(1);
     build(0, 0, std::uint32_t(t.prim_refs.size()), std::max(1u, leaf_size));
+    t.cpu_wide = cpu::build_cpu_wide_bvh(t);  // the traversal the renderer uses (build_tables)
   }
 
   /// Bounds of one primitive reference.

@@ -343,23 +343,27 @@ TEST(CpuIntersect, ClosestMatchesBruteForceAndTieBreak) {
   for (int i = 0; i < 30; ++i) s.sphere(5.0f * r.in_cube(), 0.2f + r(), m);
   s.finish(2);
   ASSERT_GT(s.t.nodes.size(), 10u);
-  for (int i = 0; i < 3000; ++i) {
+  // The four-wide tree the renderer walks, then the binary tree alone.
+  SceneTables binary = s.t;
+  binary.cpu_wide.reset();
+  for (int i = 0; i < 6000; ++i) {
+    const SceneTables& t = i % 2 ? binary : s.t;
     const Ray ray{8.0f * r.in_cube(), r.dir(), i % 3 == 0 ? 4.0f : FLT_MAX};
     Hit brute;
     brute.t = ray.tmax;
-    for (std::uint32_t ref : s.t.prim_refs) {
-      const PrimHit h = intersect_prim(s.t, ref, ray.o, ray.d, ray.tmax);
+    for (std::uint32_t ref : t.prim_refs) {
+      const PrimHit h = intersect_prim(t, ref, ray.o, ray.d, ray.tmax);
       if (h.t > 0 && (h.t < brute.t || (h.t == brute.t && ref < brute.prim))) {
         brute.t = h.t;
         brute.prim = ref;
       }
     }
-    const Hit h = intersect_closest(s.t, ray);
-    ASSERT_EQ(h.prim, brute.prim);
+    const Hit h = intersect_closest(t, ray);
+    ASSERT_EQ(h.prim, brute.prim) << (i % 2 ? "binary" : "wide");
     if (h.valid()) {
       ASSERT_EQ(h.t, brute.t);
     }
-    ASSERT_EQ(intersect_any(s.t, ray), brute.valid());
+    ASSERT_EQ(intersect_any(t, ray), brute.valid());
   }
   // Tie break: duplicated triangles in two leaves in either order; the smaller ref wins.
   for (int order = 0; order < 2; ++order) {
@@ -368,7 +372,10 @@ TEST(CpuIntersect, ClosestMatchesBruteForceAndTieBreak) {
     d.mesh({a, b, c, a, b, c}, {glm::uvec3(0, 1, 2), glm::uvec3(3, 4, 5)}, d.diffuse(glm::vec3(1)));
     d.finish(1);
     ASSERT_EQ(d.t.nodes.size(), 3u);
-    if (order) std::swap(d.t.nodes[1], d.t.nodes[2]);
+    if (order) {
+      std::swap(d.t.nodes[1], d.t.nodes[2]);
+      d.t.cpu_wide = build_cpu_wide_bvh(d.t);
+    }
     const Hit h = intersect_closest(d.t, Ray{glm::vec3(0.1f, 0.0f, 0.0f), glm::vec3(0, 0, 1), FLT_MAX});
     ASSERT_TRUE(h.valid());
     EXPECT_EQ(h.prim, 0u);
@@ -384,15 +391,18 @@ TEST(CpuIntersect, AxisRaysInAFacePlaneMeetThePrimitivesAhead) {
   TestScene s;
   s.mesh(basalt::test::axis_ray_triangle(), {glm::uvec3(0, 1, 2)}, s.diffuse(glm::vec3(0.5f)));
   s.finish(1);
-  for (const auto& c : basalt::test::axis_ray_cases()) {
-    const Hit h = intersect_closest(s.t, Ray{c.o, c.d, FLT_MAX});
-    EXPECT_EQ(h.valid(), c.hit) << c.o.x << " " << c.o.y << " " << c.o.z;
-    if (c.hit) {
-      EXPECT_EQ(h.t, 5.0f);
+  SceneTables binary = s.t;
+  binary.cpu_wide.reset();
+  for (const SceneTables* t : {&s.t, &binary})
+    for (const auto& c : basalt::test::axis_ray_cases()) {
+      const Hit h = intersect_closest(*t, Ray{c.o, c.d, FLT_MAX});
+      EXPECT_EQ(h.valid(), c.hit) << c.o.x << " " << c.o.y << " " << c.o.z;
+      if (c.hit) {
+        EXPECT_EQ(h.t, 5.0f);
+      }
+      EXPECT_EQ(intersect_any(*t, Ray{c.o, c.d, 6.0f}), c.hit);
+      EXPECT_FALSE(intersect_any(*t, Ray{c.o, c.d, 4.0f}));  // ends before the triangle
     }
-    EXPECT_EQ(intersect_any(s.t, Ray{c.o, c.d, 6.0f}), c.hit);
-    EXPECT_FALSE(intersect_any(s.t, Ray{c.o, c.d, 4.0f}));  // ends before the triangle
-  }
 }
 
 TEST(CpuIntersect, EmptyScene) {

@@ -13,6 +13,7 @@
 
 #include "common/axis_rays.h"
 #include "common/test_util.h"
+#include "cpu/wide_bvh.h"
 
 namespace basalt::test {
 namespace {
@@ -199,6 +200,7 @@ TEST_P(Robustness, DegenerateTrianglesAreSkipped) {
   t.vertices[t.triangles[0].v2].p_u = 0.5f * (t.vertices[t.triangles[0].v0].p_u +
                                               t.vertices[t.triangles[0].v1].p_u);
   t.vertices[t.triangles[1].v2].p_u = t.vertices[t.triangles[1].v0].p_u;
+  t.cpu_wide = cpu::build_cpu_wide_bvh(t);  // the CPU reference's copy of the corners
   std::vector<gpu::ProbeIn> q;
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);

@@ -56,6 +56,7 @@
 #include "common/test_util.h"
 #include "common/bump_scenes.h"
 #include "common/texture_scenes.h"
+#include "cpu/wide_bvh.h"
 #include "image/image_io.h"
 
 namespace basalt::test {
@@ -406,6 +407,7 @@ RayScene make_ray_scene() {
       rs.tris.push_back({i, tri_scale[i]});
     }
   }
+  t.cpu_wide = cpu::build_cpu_wide_bvh(t);  // the CPU reference's copy of the corners
   rs.exactly_degenerate.assign(t.triangles.size(), 0);
   for (std::uint32_t i = 0; i < t.triangles.size(); ++i) {
     const gpu::Triangle& tr = t.triangles[i];
