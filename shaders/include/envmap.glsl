@@ -81,23 +81,11 @@ vec2 equal_area_sphere_to_square(vec3 d) {
   return st;
 }
 
-// sin_accurate(x) and cos_accurate(x) of trig.glsl for x >= 0 with one shared reduction
-// (the same r, j and polynomials, so the same results; std::sin / std::cos in pbrt-v4).
+// sin_accurate(x) and cos_accurate(x) of trig.glsl (std::sin / std::cos in pbrt-v4).
 void env_sincos(float x, out float s, out float c) {
-  int j;
-  precise float r = trig_reduced(x, j);
-  precise float z = r * r;
-  float sp = trig_sin_poly(r, z), cp = trig_cos_poly(z);
-  float ss = 1.0, cs = 1.0;
-  if (j > 3) {
-    j -= 4;
-    ss = -1.0;
-    cs = -1.0;
-  }
-  if (j > 1) cs = -cs;
-  bool swap = j == 1 || j == 2;
-  s = ss * (swap ? cp : sp);
-  c = cs * (swap ? sp : cp);
+  vec2 cs = cos_sin_accurate(x);
+  s = cs.y;
+  c = cs.x;
 }
 
 // pbrt-v4 EqualAreaSquareToSphere (util/math.cpp): [0,1]^2 -> unit direction, in two

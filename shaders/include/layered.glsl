@@ -127,7 +127,8 @@ vec3 hg_sample(vec3 wo, float g, vec2 u, out float pdf) {
   duff_frame(wo, t1, t2);
   // pbrt-v4 SphericalDirection (clamped) in the frame, Frame::FromLocal
   precise float s = clamp(sin_t, -1.0, 1.0);
-  precise vec3 wi = (s * cos_accurate(phi)) * t1 + (s * sin_accurate(phi)) * t2 + clamp(cos_t, -1.0, 1.0) * wo;
+  vec2 cs = cos_sin_accurate(phi);
+  precise vec3 wi = (s * cs.x) * t1 + (s * cs.y) * t2 + clamp(cos_t, -1.0, 1.0) * wo;
   pdf = henyey_greenstein(cos_t, g);
   return wi;
 }

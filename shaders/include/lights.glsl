@@ -289,7 +289,8 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
           float cos_a = sin2_t / sqrt(sin2_max) + cos_t * safe_sqrt(1.0 - sin2_t / sin2_max);
           float sin_a = safe_sqrt(1.0 - cos_a * cos_a);
           float phi = 2.0 * PI * u.y;
-          vec3 w = vec3(sin_a * cos_accurate(phi), sin_a * sin_accurate(phi), cos_a);
+          vec2 cs = cos_sin_accurate(phi);
+          vec3 w = vec3(sin_a * cs.x, sin_a * cs.y, cos_a);
           vec3 z = safe_normalize(c - p);
           vec3 t1, t2;
           duff_frame(z, t1, t2);

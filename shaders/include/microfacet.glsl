@@ -52,7 +52,7 @@ precise vec2 cos_sin_2pi(float u) {
     sgn = -1.0;
   }
   precise float a = 2.0 * PI * w;
-  return sgn * vec2(cos_accurate(a), sin_accurate(a));
+  return sgn * cos_sin_accurate(a);
 }
 
 // A microfacet distribution: alphas and which of the two (docs/materials-spec.md 2.1).
@@ -140,7 +140,7 @@ vec3 mf_sample_wm(MfDist d, vec3 w, vec2 u) {
     if (d.ax == d.ay) {
       tan2 = -d.ax * d.ax * log_sample;
       float phi = u.y * 2.0 * PI;
-      cs = vec2(cos_accurate(phi), sin_accurate(phi));
+      cs = cos_sin_accurate(phi);
     } else {
       // pbrt-v3's phi = atan(ay/ax tan(2 pi u1 + pi/2)) (+ pi past u1 = 1/2) as a direction
       precise vec2 t = cos_sin_2pi(u.y);

@@ -25,7 +25,7 @@ vec2 concentric_disk(vec2 u) {
     r = o.y;
     th = PI_OVER_2 - PI_OVER_4 * (o.x / o.y);
   }
-  return r * vec2(cos_accurate(th), sin_accurate(th));
+  return r * cos_sin_accurate(th);
 }
 
 // Uniform direction on the unit sphere, pbrt-v4 A.5.2 SampleUniformSphere
@@ -34,7 +34,8 @@ vec3 uniform_sphere(vec2 u) {
   float z = 1.0 - 2.0 * u.x;
   float r = sqrt(max(0.0, 1.0 - z * z));
   float phi = 2.0 * PI * u.y;
-  return vec3(r * cos_accurate(phi), r * sin_accurate(phi), z);
+  vec2 cs = cos_sin_accurate(phi);
+  return vec3(r * cs.x, r * cs.y, z);
 }
 
 // Barycentrics (b0, b1, b2) uniform over a triangle, pbrt-v4 A.5.5 SampleUniformTriangle

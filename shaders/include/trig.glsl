@@ -96,19 +96,23 @@ precise float sin_accurate(float x) {
   float y = (j == 1 || j == 2) ? trig_cos_poly(z) : trig_sin_poly(r, z);
   return sgn * y;
 }
-// cos(x) to about 1 ulp for |x| < 2^15.
-precise float cos_accurate(float x) {
+// (cos x, sin x) to about 1 ulp for |x| < 2^15 from one reduction and both polynomials (cos
+// is even; sin takes the sign of x): every sample warp wants both, and two functions would
+// reduce twice.
+precise vec2 cos_sin_accurate(float x) {
   int j;
   float r = trig_reduced(abs(x), j);
-  float sgn = 1.0;
+  float z = r * r;
+  float sp = trig_sin_poly(r, z), cp = trig_cos_poly(z);
+  float ss = x < 0.0 ? -1.0 : 1.0, cs = 1.0;
   if (j > 3) {
     j -= 4;
-    sgn = -sgn;
+    ss = -ss;
+    cs = -cs;
   }
-  if (j > 1) sgn = -sgn;
-  float z = r * r;
-  float y = (j == 1 || j == 2) ? trig_sin_poly(r, z) : trig_cos_poly(z);
-  return sgn * y;
+  if (j > 1) cs = -cs;
+  bool swap = j == 1 || j == 2;
+  return vec2(cs * (swap ? sp : cp), ss * (swap ? cp : sp));
 }
 
 // Cephes expf (S. L. Moshier, expf.c): x = n ln2 + r with ln2 in two parts (C1 exact in few
