@@ -112,9 +112,10 @@ int run(const Options& opt) {
   basalt::BuildTimes times;
   std::vector<std::string> warnings;
   // The parsed meshes are freed as they are flattened: nothing after this reads them.
-  basalt::SceneTables tables = basalt::build_tables_releasing_meshes(scene, &times, &warnings);
+  // The CPU reference's own four-wide tree only for the CPU reference.
+  basalt::SceneTables tables =
+      basalt::build_tables_releasing_meshes(scene, &times, &warnings, opt.device == "cpu");
   for (const auto& w : warnings) std::cerr << w << "\n";
-  if (opt.device != "cpu") tables.cpu_wide.reset();  // the CPU reference's own tree
   // Quality knobs (docs/textures.md): --texture-filter, --noise-octaves.
   static const char* kFilters[] = {"point", "bilinear", "trilinear", "ewa"};
   int filter = -1;
@@ -194,18 +195,19 @@ int run(const Options& opt) {
     st.driver = ctx->info().driver;
     // --pipeline all: every feature's code compiled in (a time-only knob: same image).
     // --pipeline wavefront: the wavefront stages instead of the megakernel (same expectation).
-    basalt::vkx::GpuRenderer gpu =
-        opt.pipeline == "all"
-            ? basalt::vkx::GpuRenderer(*ctx, tables, 0xffffffffu, basalt::vkx::ShaderVariant::full)
-        : opt.pipeline == "wavefront"
-            ? basalt::vkx::GpuRenderer(*ctx, tables, tables.features,
-                                       basalt::vkx::ShaderVariant::wavefront)
-        : opt.pipeline == "megakernel"
-            ? basalt::vkx::GpuRenderer(*ctx, tables, tables.features,
-                                       basalt::vkx::GpuRenderer::lean_suffices(tables.features)
-                                           ? basalt::vkx::ShaderVariant::lean
-                                           : basalt::vkx::ShaderVariant::full)
-            : basalt::vkx::GpuRenderer(*ctx, tables);
+    namespace vkx = basalt::vkx;
+    const std::uint32_t features = opt.pipeline == "all" ? 0xffffffffu : tables.features;
+    const vkx::ShaderVariant variant =
+        opt.pipeline == "all"          ? vkx::ShaderVariant::full
+        : opt.pipeline == "wavefront"  ? vkx::ShaderVariant::wavefront
+        : opt.pipeline == "megakernel" ? (vkx::GpuRenderer::lean_suffices(tables.features)
+                                              ? vkx::ShaderVariant::lean
+                                              : vkx::ShaderVariant::full)
+                                       : vkx::ShaderVariant::automatic;
+    // Once on the device the host's copies of the large tables are freed, before the
+    // pipelines' compile (LLVM's memory on lavapipe) adds to them: nothing reads them after.
+    vkx::GpuRenderer gpu(*ctx, tables, features, variant, true,
+                         [&tables] { basalt::release_bulk_tables(tables); });
     st.seconds_upload = gpu.seconds_upload;
     st.seconds_pipeline = gpu.seconds_pipeline;
     st.seconds_specialise = gpu.seconds_specialise;

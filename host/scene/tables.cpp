@@ -511,7 +511,7 @@ void check_emission(const glm::vec3& L, const SourceLoc& loc) {
 /// build_tables, freeing each shape's parsed mesh in \p release (the scene itself, or null)
 /// once its vertices and triangles are in the tables.
 SceneTables build_tables_impl(const Scene& scene, Scene* release, BuildTimes* times,
-                              std::vector<std::string>* warnings) {
+                              std::vector<std::string>* warnings, bool cpu_tree) {
   SceneTables t;
   gpu::Globals& g = t.globals;
 
@@ -798,7 +798,7 @@ SceneTables build_tables_impl(const Scene& scene, Scene* release, BuildTimes* ti
       const std::uint32_t p = bvh.prim_order[i];
       t.prim_refs[i] = p < tri_count ? p : (p - tri_count) | gpu::PRIM_SPHERE_BIT;
     }
-    if (!t.nodes.empty()) t.cpu_wide = cpu::build_cpu_wide_bvh(t);
+    if (cpu_tree && !t.nodes.empty()) t.cpu_wide = cpu::build_cpu_wide_bvh(t);
     const auto stop = std::chrono::steady_clock::now();
     if (times) times->seconds_bvh = std::chrono::duration<double>(stop - start).count();
   }
@@ -936,12 +936,12 @@ SceneTables build_tables_impl(const Scene& scene, Scene* release, BuildTimes* ti
 
 SceneTables build_tables(const Scene& scene, BuildTimes* times,
                          std::vector<std::string>* warnings) {
-  return build_tables_impl(scene, nullptr, times, warnings);
+  return build_tables_impl(scene, nullptr, times, warnings, true);
 }
 
 SceneTables build_tables_releasing_meshes(Scene& scene, BuildTimes* times,
-                                          std::vector<std::string>* warnings) {
-  return build_tables_impl(scene, &scene, times, warnings);
+                                          std::vector<std::string>* warnings, bool cpu_tree) {
+  return build_tables_impl(scene, &scene, times, warnings, cpu_tree);
 }
 
 
@@ -1083,6 +1083,18 @@ std::vector<std::pair<std::string, std::string>> apply_path_knobs(SceneTables& t
                                                                    : std::to_string(roulette_start));
   knobs.emplace_back("mis", kMis[t.globals.render_opts.y]);
   return knobs;
+}
+
+void release_bulk_tables(SceneTables& t) {
+  auto drop = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
+  drop(t.nodes);
+  drop(t.prim_refs);
+  drop(t.triangles);
+  drop(t.vertices);
+  drop(t.texels);
+  drop(t.tex_data);
+  drop(t.measured);
+  t.cpu_wide.reset();
 }
 
 std::uint64_t table_bytes(const SceneTables& t) {

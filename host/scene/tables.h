@@ -35,7 +35,7 @@ struct SceneTables {
   std::vector<float> tex_data;            // shared tables (docs/textures-spec.md 5)
   std::vector<std::uint32_t> sampler_data;  // primes (docs/sampler-spec.md 3)
   // The CPU reference's own four-wide tree over nodes (cpu/wide_bvh.h), made by build_tables;
-  // a device's renderer does not read it (the command line drops it before the upload). A
+  // a device's renderer does not read it (the command line does not make it for one). A
   // tree whose binary nodes were replaced since is not used (cpu::intersect_* walk nodes).
   std::shared_ptr<const cpu::WideBvh> cpu_wide;
   std::uint32_t features = 0;     // FEATURE_* bits
@@ -69,9 +69,16 @@ SceneTables build_tables(const Scene& scene, BuildTimes* times = nullptr,
 /// \brief build_tables that frees each shape's parsed mesh (positions, normals, uvs, indices)
 /// as soon as its vertices and triangles are in the tables, so that the parsed copy is gone
 /// before the BVH build's arrays grow (the command line's peak memory, docs/performance.md).
-/// The same tables; \p scene keeps everything but its shapes' meshes.
+/// The same tables; \p scene keeps everything but its shapes' meshes. \p cpu_tree false: no
+/// cpu_wide (the command line rendering on a Vulkan device, which never reads it).
 SceneTables build_tables_releasing_meshes(Scene& scene, BuildTimes* times = nullptr,
-                                          std::vector<std::string>* warnings = nullptr);
+                                          std::vector<std::string>* warnings = nullptr,
+                                          bool cpu_tree = true);
+
+/// \brief Frees the large tables of \p t (BVH, primitives, vertices, texels, shared texture
+/// and measured-BRDF data), keeping the small ones (globals, materials, lights, textures, ...):
+/// for a caller whose tables are on a device and no longer read on the host.
+void release_bulk_tables(SceneTables& t);
 
 /// \brief Light selection (docs/path-spec.md 6) by \p mode: "bvh" (pbrt-v4's BVHLightSampler
 /// split between infinite and bounded lights, power within the bounded ones; the default),

@@ -165,7 +165,8 @@ bool GpuRenderer::lean_suffices(std::uint32_t features) {
 }
 
 GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t features,
-                         ShaderVariant which, bool render_pipeline)
+                         ShaderVariant which, bool render_pipeline,
+                         const std::function<void()>& uploaded)
     : ctx_(ctx), width_(t.width()), height_(t.height()) {
   if (which == ShaderVariant::lean && !lean_suffices(features))
     throw std::invalid_argument("the lean render shader cannot render feature bits " +
@@ -276,6 +277,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
                                                   .range = texels * v.texel_bytes}));
   }
   seconds_upload = since(t0);
+  if (uploaded) uploaded();  // from here on only t.materials and the feature words are read
 
   if (!render_pipeline) return;  // probes only: their pipeline is built by probe()
   t0 = Clock::now();

@@ -37,8 +37,12 @@ class GpuRenderer {
   /// \throws std::runtime_error if a table exceeds the device's maxStorageBufferRange.
   /// \throws std::invalid_argument if \p variant is lean and lean_suffices(features) is false.
   /// \param render_pipeline false: upload only, for probe() (render() then throws).
+  /// \param uploaded called once the tables are on the device, before any pipeline is made:
+  ///        after it the constructor reads only \p tables' materials and feature words (the
+  ///        command line frees the large host tables there, for its peak memory).
   GpuRenderer(Context& ctx, const SceneTables& tables, std::uint32_t features,
-              ShaderVariant variant = ShaderVariant::automatic, bool render_pipeline = true);
+              ShaderVariant variant = ShaderVariant::automatic, bool render_pipeline = true,
+              const std::function<void()>& uploaded = {});
   GpuRenderer(Context& ctx, const SceneTables& tables)
       : GpuRenderer(ctx, tables, tables.features) {}
   ~GpuRenderer();
