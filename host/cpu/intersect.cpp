@@ -1,5 +1,6 @@
 // Ray-primitive intersection and BVH traversal of the CPU reference
-// (docs/path-spec.md section 3).
+// (docs/path-spec.md section 3): the four-wide tree of cpu/wide_bvh.h (3.2), or the binary
+// tree when the tables have none.
 #include "cpu/intersect.h"
 
 #include <algorithm>

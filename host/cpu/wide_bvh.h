@@ -1,7 +1,10 @@
 // The CPU reference's own four-wide BVH: the binary tree's nodes regrouped four children a
 // node with exact float boxes, laid out for a four-lane slab test (docs/path-spec.md 3.2).
 // Built by the CPU reference from the binary nodes alone; the GPU's quantised wide tree
-// (host/accel build_wide_bvh) is a separate construction, so each checks the other.
+// (host/accel build_wide_bvh) is a separate construction, so each checks the other. Four-wide
+// nodes tested in SIMD lanes after Dammertz, Hanika & Keller 2008 ("Shallow bounding volume
+// hierarchies for fast SIMD ray tracing of incoherent rays") and Wald, Benthin & Boulos 2008
+// ("Getting rid of packets"); here made by collapsing every other level of the binary tree.
 #pragma once
 #include <cstdint>
 #include <memory>
