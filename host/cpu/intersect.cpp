@@ -180,7 +180,36 @@ struct ClosestState {
   float best_t;
   std::uint32_t best_ref = gpu::INVALID_INDEX;
   float b1 = 0, b2 = 0;
+  /// Keeps hit (t, b1, b2) of primitive reference \p ref if it is the closest so far. Spec
+  /// section 3: 0 < t < tmax; smallest t, then the smaller primitive reference.
+  void offer(std::uint32_t ref, float t, float hb1, float hb2) {
+    if (t > 0.0f && t < tmax && (t < best_t || (t == best_t && ref < best_ref))) {
+      best_t = t;
+      best_ref = ref;
+      b1 = hb1;
+      b2 = hb2;
+    }
+  }
 };
+
+/// The primitives prim_refs[first, first + count) offered to \p st one by one.
+inline void closest_leaf(const SceneTables& s, const RayBox& rb, std::uint32_t first,
+                         std::uint32_t count, ClosestState& st) {
+  for (std::uint32_t i = first; i < first + count; ++i) {
+    const PrimHit h = prim_hit(s, s.prim_refs[i], rb);
+    st.offer(s.prim_refs[i], h.t, h.b1, h.b2);
+  }
+}
+
+/// True if any of prim_refs[first, first + count) is hit at 0 < t < tmax.
+inline bool any_leaf(const SceneTables& s, const RayBox& rb, std::uint32_t first,
+                     std::uint32_t count, float tmax) {
+  for (std::uint32_t i = first; i < first + count; ++i) {
+    const PrimHit h = prim_hit(s, s.prim_refs[i], rb);
+    if (h.t > 0.0f && h.t < tmax) return true;
+  }
+  return false;
+}
 
 /// Closest-hit traversal of the subtree at root (whose box is already known to be hit):
 /// stack based, nearer child first; recursion only when the fixed stack would overflow.
@@ -218,18 +247,7 @@ void closest_from(const SceneTables& s, const Ray& ray, const RayBox& rb, std::u
         descend = true;
       }
     } else {
-      for (std::uint32_t i = n.a; i < n.a + n.b; ++i) {
-        const std::uint32_t ref = s.prim_refs[i];
-        const PrimHit h = prim_hit(s, ref, rb);
-        // Spec section 3: smallest t, then the smaller primitive reference.
-        if (h.t > 0.0f && h.t < st.tmax &&
-            (h.t < st.best_t || (h.t == st.best_t && ref < st.best_ref))) {
-          st.best_t = h.t;
-          st.best_ref = ref;
-          st.b1 = h.b1;
-          st.b2 = h.b2;
-        }
-      }
+      closest_leaf(s, rb, n.a, n.b, st);
     }
     if (descend) continue;
     // Pop the next subtree whose entry distance can still hold the closest hit.
@@ -270,10 +288,7 @@ bool any_from(const SceneTables& s, const Ray& ray, const RayBox& rb, std::uint3
         descend = true;
       }
     } else {
-      for (std::uint32_t i = n.a; i < n.a + n.b; ++i) {
-        const PrimHit h = prim_hit(s, s.prim_refs[i], rb);
-        if (h.t > 0.0f && h.t < ray.tmax) return true;
-      }
+      if (any_leaf(s, rb, n.a, n.b, ray.tmax)) return true;
     }
     if (descend) continue;
     if (sp == 0) return false;
@@ -432,28 +447,11 @@ void closest_wide(const SceneTables& s, const WideBvh& w, const RayBox& rb, Clos
         V4f t, b1, b2;
         for (unsigned m = triangle_hit4(pk, r4t, t, b1, b2); m != 0; m &= m - 1) {
           const int i = __builtin_ctz(m);
-          const std::uint32_t ref = pk.ref[i];
-          if (t[i] < st.tmax && (t[i] < st.best_t || (t[i] == st.best_t && ref < st.best_ref))) {
-            st.best_t = t[i];
-            st.best_ref = ref;
-            st.b1 = b1[i];
-            st.b2 = b2[i];
-          }
+          st.offer(pk.ref[i], t[i], b1[i], b2[i]);
         }
       }
     } else {
-      for (std::uint32_t i = cur.child; i < cur.child + cur.count; ++i) {
-        const std::uint32_t ref = s.prim_refs[i];
-        const PrimHit h = prim_hit(s, ref, rb);
-        // Spec section 3: smallest t, then the smaller primitive reference.
-        if (h.t > 0.0f && h.t < st.tmax &&
-            (h.t < st.best_t || (h.t == st.best_t && ref < st.best_ref))) {
-          st.best_t = h.t;
-          st.best_ref = ref;
-          st.b1 = h.b1;
-          st.b2 = h.b2;
-        }
-      }
+      closest_leaf(s, rb, cur.child, cur.count, st);
     }
     // Pop the next slot whose entry distance can still hold the closest hit.
     for (;;) {
@@ -496,10 +494,7 @@ bool any_wide(const SceneTables& s, const WideBvh& w, const Ray& ray, const RayB
         if (triangle_hit4(w.packets[k], r4t, t, b1, b2) & lane_mask(t < tmax)) return true;
       }
     } else {
-      for (std::uint32_t i = cur.child; i < cur.child + cur.count; ++i) {
-        const PrimHit h = prim_hit(s, s.prim_refs[i], rb);
-        if (h.t > 0.0f && h.t < ray.tmax) return true;
-      }
+      if (any_leaf(s, rb, cur.child, cur.count, ray.tmax)) return true;
     }
     if (sp == 0) return false;
     cur = stack[--sp];
