@@ -22,9 +22,12 @@
 #include "shaders/probe.spv.h"
 #include "shaders/render.spv.h"
 #include "shaders/render_lean.spv.h"
+#include "shaders/render_lean_plain.spv.h"
 #include "shaders/trace.spv.h"
 #include "shaders/wavefront_extend.spv.h"
+#include "shaders/wavefront_extend_plain.spv.h"
 #include "shaders/wavefront_shade.spv.h"
+#include "shaders/wavefront_shade_plain.spv.h"
 
 namespace basalt::vkx {
 
@@ -162,6 +165,11 @@ constexpr std::uint32_t kWfGroups = 3;
 
 bool GpuRenderer::lean_suffices(std::uint32_t features) {
   return (features & ~kLeanFeatures) == 0u;
+}
+
+bool GpuRenderer::plain_suffices(std::uint32_t features, std::uint32_t features2) {
+  return (features & ~gpu::FEATURES_PLAIN_KEEP) == 0u &&
+         (features2 & ~gpu::FEATURES2_PLAIN_KEEP) == 0u;
 }
 
 GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t features,
@@ -308,6 +316,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     wf_bindings_.push_back({BINDING_PROBE_OUT, &wf_lists_});
     wf_features_ = features;
     wf_features2_ = features2;
+    plain = plain_builds && plain_suffices(features, features2);
     // The mix group's material bits: the types a mix of the scene may reach (its children,
     // theirs, ...), not every type of the scene.
     wf_mix_bits_ = 0;
@@ -352,11 +361,13 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
         for (std::size_t i; (i = next++) < stages.size();) try {
             const std::uint32_t g = stages[i];
             promised[i].set_value(
-                g == kExtend ? make_pipeline(wavefront_extend_spv, sizeof(wavefront_extend_spv),
-                                             features, features2, wf_bindings_, wf_path_view_)
-                             : make_pipeline(wavefront_shade_spv, sizeof(wavefront_shade_spv),
-                                             wf_shade_features(g), wf_features2_, wf_bindings_,
-                                             wf_path_view_));
+                g == kExtend
+                    ? (plain ? make_pipeline(wavefront_extend_plain_spv,
+                                             sizeof(wavefront_extend_plain_spv), features,
+                                             features2, wf_bindings_, wf_path_view_)
+                             : make_pipeline(wavefront_extend_spv, sizeof(wavefront_extend_spv),
+                                             features, features2, wf_bindings_, wf_path_view_))
+                    : make_wf_shade(g));
           } catch (...) {
             promised[i].set_exception(std::current_exception());
           }
@@ -395,9 +406,12 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     seconds_pipeline = since(t0);
     return;
   }
-  render_ = lean ? make_pipeline(render_lean_spv, sizeof(render_lean_spv), features, features2,
-                                 bindings)
-                 : make_pipeline(render_spv, sizeof(render_spv), features, features2, bindings);
+  plain = lean && plain_builds && plain_suffices(features, features2);
+  render_ = plain  ? make_pipeline(render_lean_plain_spv, sizeof(render_lean_plain_spv), features,
+                                   features2, bindings)
+            : lean ? make_pipeline(render_lean_spv, sizeof(render_lean_spv), features, features2,
+                                   bindings)
+                   : make_pipeline(render_spv, sizeof(render_spv), features, features2, bindings);
   // lavapipe compiles at first dispatch: an empty pass makes that cost part of pipeline time.
   dispatch(render_, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, 0}, 1);
   seconds_pipeline = since(t0);
@@ -557,12 +571,20 @@ std::uint32_t GpuRenderer::wf_shade_features(std::uint32_t group) const {
   return (wf_features_ & ~material_bits()) | (wf_features_ & bits);
 }
 
+GpuRenderer::Pipeline GpuRenderer::make_wf_shade(std::uint32_t group) {
+  return plain ? make_pipeline(wavefront_shade_plain_spv, sizeof(wavefront_shade_plain_spv),
+                               wf_shade_features(group), wf_features2_, wf_bindings_,
+                               wf_path_view_)
+               : make_pipeline(wavefront_shade_spv, sizeof(wavefront_shade_spv),
+                               wf_shade_features(group), wf_features2_, wf_bindings_,
+                               wf_path_view_);
+}
+
 GpuRenderer::Pipeline& GpuRenderer::wf_shade(std::uint32_t type) {
   const std::uint32_t group = wf_group_of(type);
   Pipeline& p = wf_shade_.at(group);
   if (p.pipeline) return p;
-  p = make_pipeline(wavefront_shade_spv, sizeof(wavefront_shade_spv), wf_shade_features(group),
-                    wf_features2_, wf_bindings_, wf_path_view_);
+  p = make_wf_shade(group);
   // lavapipe compiles at first dispatch (see the constructor's empty pass).
   dispatch(p, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
   return p;

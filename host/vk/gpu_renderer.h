@@ -95,6 +95,12 @@ class GpuRenderer {
   double seconds_specialise = 0.0;  // SPIR-V specialisation of the pipelines built (specialise.h)
   std::uint64_t device_bytes = 0; // bytes of all scene tables on the device
   std::string variant;            // render shader build in use: "lean", "full" or "wavefront"
+  bool plain = false;             // the plain builds of it (plain_suffices), pruned at build time
+  /// Whether a scene of these feature words can use the plain builds of the lean and wavefront
+  /// modules (no texture, image-light or bump code: FEATURES_PLAIN_KEEP of layout.h).
+  static bool plain_suffices(std::uint32_t features, std::uint32_t features2);
+  /// Tests set this false to compare the plain builds with the full ones.
+  static inline bool plain_builds = true;
   /// Paths of a wavefront wave (at most; a wave is one sample of up to this many pixel slots).
   static inline std::uint32_t wavefront_capacity = 65536;
 
@@ -156,6 +162,8 @@ class GpuRenderer {
   /// \brief The shade group whose pipeline shades MATERIAL_* \p type (wf_group, with the
   /// mixes in wf_mix_group_).
   std::uint32_t wf_group_of(std::uint32_t type) const;
+  /// \brief Makes the shade pipeline of group \p group (the plain build when \c plain).
+  Pipeline make_wf_shade(std::uint32_t group);
   /// \brief The shade pipeline of MATERIAL_* \p type, built if it is not yet.
   Pipeline& wf_shade(std::uint32_t type);
   /// \brief The feature word shade group \p group is specialised for: the scene's, with only

@@ -8,11 +8,49 @@
 
 // Feature bits of the scene (FEATURE_*): the host specialises the render pipeline so that
 // code for absent features is constant-folded away. Every optional part of the shaders is
-// gated by (FEATURES & FEATURE_X) != 0u; all bits set (the default, used by the probe) must
+// gated by has_feature(FEATURE_X); all bits set (the default, used by the probe) must
 // render every scene correctly.
 layout(constant_id = 0) const uint FEATURES = 0xffffffffu;
 // The second feature word (FEATURE2_*: texture families), specialization constant 1.
 layout(constant_id = 1) const uint FEATURES2 = 0xffffffffu;
+// Whether the scene's feature set includes one of `bits` (FEATURE_*; has_feature2: FEATURE2_*).
+// Macros, not functions: at each use the test is then a constant expression of the
+// specialization constant, which the host's SPIR-V specialisation (host/vk/specialise.h) folds
+// and removes the dead branch of; behind a function parameter it stayed, with all it guards.
+// A build variant may rule bits out for good (BASALT_FEATURES_KEEP and BASALT_FEATURES2_KEEP,
+// the bits it can render; BASALT_PLAIN: the plain variants of layout.h): a test of such bits
+// is then the constant false already in glslang's output, which the build's own dead-code
+// passes remove (cmake/Shaders.cmake, PRUNE), so that the scene-time specialisation starts
+// from a smaller module. The host picks such a variant only for scenes without those bits.
+#ifdef BASALT_PLAIN
+#define BASALT_FEATURES_KEEP FEATURES_PLAIN_KEEP
+#define BASALT_FEATURES2_KEEP FEATURES2_PLAIN_KEEP
+#endif
+// no_feature: none of `bits`, written out rather than as !has_feature(bits), which glslang
+// 12 turns into an invalid module when it is a constant-false && (a specialization-constant
+// LogicalNot of a phi).
+// A global constant needs the third form, feature_const: glslang cannot initialise one with
+// the short-circuit && or || of the first two in a build variant (again an invalid module).
+// It rules the variant's bits out too, in a specialization-constant operation that the
+// scene-time specialisation folds.
+#ifdef BASALT_FEATURES_KEEP
+#define feature_const(bits) ((FEATURES & ((bits) & BASALT_FEATURES_KEEP)) != 0u)
+#define has_feature(bits) (((bits) & BASALT_FEATURES_KEEP) != 0u && (FEATURES & (bits)) != 0u)
+#define no_feature(bits) (((bits) & BASALT_FEATURES_KEEP) == 0u || (FEATURES & (bits)) == 0u)
+#else
+#define feature_const(bits) ((FEATURES & (bits)) != 0u)
+#define has_feature(bits) ((FEATURES & (bits)) != 0u)
+#define no_feature(bits) ((FEATURES & (bits)) == 0u)
+#endif
+#ifdef BASALT_FEATURES2_KEEP
+#define feature2_const(bits) ((FEATURES2 & ((bits) & BASALT_FEATURES2_KEEP)) != 0u)
+#define has_feature2(bits) (((bits) & BASALT_FEATURES2_KEEP) != 0u && (FEATURES2 & (bits)) != 0u)
+#define no_feature2(bits) (((bits) & BASALT_FEATURES2_KEEP) == 0u || (FEATURES2 & (bits)) == 0u)
+#else
+#define feature2_const(bits) ((FEATURES2 & (bits)) != 0u)
+#define has_feature2(bits) ((FEATURES2 & (bits)) != 0u)
+#define no_feature2(bits) ((FEATURES2 & (bits)) == 0u)
+#endif
 // Specialization constant 2: 1 when the leaf_prims table is bound (BINDING_LEAF_PRIMS), 0 when
 // the scene's is too large for one binding and leaves read prim_refs, triangles and vertices.
 // A table format, not a feature: the host sets it for every pipeline, the probe's included.

@@ -41,7 +41,7 @@ Lobe bsdf_lobes[MAX_LOBES];
 const uint MULTI_LOBE_FEATURES = FEATURE_MAT_PLASTIC | FEATURE_MAT_TRANSLUCENT |
                                  FEATURE_MAT_UBER | FEATURE_MAT_MIX_WEIGHTED;
 #if BSDF_ALL_MATERIALS
-const bool BSDF_ONE_LOBE = (FEATURES & MULTI_LOBE_FEATURES) == 0u;
+const bool BSDF_ONE_LOBE = !feature_const(MULTI_LOBE_FEATURES);
 #else
 const bool BSDF_ONE_LOBE = true;
 #endif
@@ -87,7 +87,7 @@ vec4 bump_disp_uv;
 // (four with central differences): its displacement slot at the shifted contexts of
 // bump_shifted_ctx, into bump_disp_uv, so that the texture interpreter keeps its one call site.
 void slots_resolve(uint m, SurfacePoint sp) {
-  if ((FEATURES & FEATURE_TEXTURES) == 0u) return;
+  if (no_feature(FEATURE_TEXTURES)) return;
   uint n = MATERIAL_SLOTS;
   if (BUMP_ENABLED && bump_wanted(material_head(m).y)) n += bump_central() ? 4u : 2u;
   [[dont_unroll]] for (uint s = 0u; s < n; ++s) {
@@ -111,7 +111,7 @@ BumpFrame bsdf_frame;
 
 // Slot value of material m (the one slots_resolve was last called for) at sp.
 vec4 slot_value(uint m, uint slot, SurfacePoint sp) {
-  if ((FEATURES & FEATURE_TEXTURES) != 0u) return slot_cache[slot];
+  if (has_feature(FEATURE_TEXTURES)) return slot_cache[slot];
   return material_value(m, slot);
 }
 

@@ -16,11 +16,19 @@
 #include "surface.glsl"
 #include "noise.glsl"
 
-// True if the scene may bump (FEATURE2_BUMP) or normal-map (FEATURE2_NORMALMAP).
-const bool BUMP_ENABLED = (FEATURES2 & FEATURE2_BUMP) != 0u;
-const bool NORMALMAP_ENABLED = (FEATURES2 & FEATURE2_NORMALMAP) != 0u;
-// True if the scene may perturb normals by vector turbulence (FEATURE2_VTURB, bump-spec 9).
-const bool VTURB_ENABLED = (FEATURES2 & FEATURE2_VTURB) != 0u;
+// True if the scene may bump (FEATURE2_BUMP) or normal-map (FEATURE2_NORMALMAP), and if it
+// may perturb normals by vector turbulence (FEATURE2_VTURB, bump-spec 9). False as written in
+// the plain builds, whose scenes have none of them (bindings.glsl: a specialization constant
+// would leave the code they guard for the scene-time specialisation to remove).
+#ifdef BASALT_PLAIN
+const bool BUMP_ENABLED = false;
+const bool NORMALMAP_ENABLED = false;
+const bool VTURB_ENABLED = false;
+#else
+const bool BUMP_ENABLED = feature2_const(FEATURE2_BUMP);
+const bool NORMALMAP_ENABLED = feature2_const(FEATURE2_NORMALMAP);
+const bool VTURB_ENABLED = feature2_const(FEATURE2_VTURB);
+#endif
 
 // True if material flags `mflags` ask for the bump of bump-spec 4 (a displacement and no
 // normal map: the normal map wins, bump-spec 1).

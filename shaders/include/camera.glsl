@@ -37,7 +37,7 @@ float filter_sample_axis(float u, uint base, uint n, float r) {
 // (box or gaussian; weight 1 in both cases).
 vec2 filter_offset(float ux, float uy) {
   vec2 r = globals.filter_radius.xy;
-  if ((FEATURES & FEATURE_FILTER_GAUSSIAN) != 0u && globals.counts.z == FILTER_GAUSSIAN) {
+  if (has_feature(FEATURE_FILTER_GAUSSIAN) && globals.counts.z == FILTER_GAUSSIAN) {
     uint n = globals.counts.w;
     if (n == 0u) return vec2(0.0);  // no table (malformed input): the pixel centre
     return vec2(filter_sample_axis(ux, 0u, n, r.x), filter_sample_axis(uy, n + 1u, n, r.y));
@@ -55,7 +55,7 @@ void camera_ray_through(vec2 p_film, vec2 p_lens, out vec3 o, out vec3 d) {
   vec3 dc = vec3(sx * tan_half, sy * tan_half, 1.0);
   vec3 oc = vec3(0.0);
   vec3 dir = safe_normalize(dc);
-  if ((FEATURES & FEATURE_THIN_LENS) != 0u && globals.lens.y > 0.0) {
+  if (has_feature(FEATURE_THIN_LENS) && globals.lens.y > 0.0) {
     // pbrt-v4 PerspectiveCamera: the focal plane is z = focal distance, pFocus = dc * fd.
     oc = vec3(p_lens, 0.0);
     dir = safe_normalize(dc * globals.lens.z - oc);
@@ -70,7 +70,7 @@ void camera_ray_through(vec2 p_film, vec2 p_lens, out vec3 o, out vec3 d) {
 // Camera ray of sample s of pixel (px, py) (docs/path-spec.md section 2), with its
 // differential rays if diffs (else they repeat the ray).
 CameraRay camera_ray(uint px, uint py, uint s, bool diffs) {
-  bool thin_lens = (FEATURES & FEATURE_THIN_LENS) != 0u && globals.lens.y > 0.0;
+  bool thin_lens = has_feature(FEATURE_THIN_LENS) && globals.lens.y > 0.0;
   vec4 u = camera_samples(px, py, s, thin_lens ? 4u : 2u);  // filter, lens
   vec2 p_film = vec2(float(px) + 0.5, float(py) + 0.5) + filter_offset(u.x, u.y);
   vec2 p_lens = vec2(0.0);

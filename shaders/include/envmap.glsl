@@ -154,7 +154,7 @@ vec3 env_image_le(uint light, vec2 p, int face, uint mapping) {
     // tx = min(int(fu n), n - 1), ty = face n + min(int(fv n), n - 1), n = width.
     x = min(int(p.x * float(w)), w - 1);
     y = face * w + min(int(p.y * float(w)), w - 1);
-  } else if ((FEATURES2 & FEATURE2_ENV_PORTAL) != 0u && mapping == ENVMAP_PORTAL) {
+  } else if (has_feature2(FEATURE2_ENV_PORTAL) && mapping == ENVMAP_PORTAL) {
     x = int(p.x * float(w));  // clamped to the image below
     y = int(p.y * float(h));
   } else {
@@ -452,7 +452,7 @@ vec3 env_eval(uint light, vec3 w_world, bool compensated, vec3 ray_o, vec3 p_ref
   vec2 p;           // the texel lookup's point (env_image_le)
   int face = 0;     // cube face
   float jac = 0.0;  // lat-long: sin theta; cube: r; portal: duv_dw
-  bool portal = (FEATURES2 & FEATURE2_ENV_PORTAL) != 0u && mapping == ENVMAP_PORTAL;
+  bool portal = has_feature2(FEATURE2_ENV_PORTAL) && mapping == ENVMAP_PORTAL;
   bool visible = true;       // portal: the Le direction passes through the window
   float portal_int = 0.0;    // portal: the window's integral seen from p_ref
   if (portal) {
@@ -578,7 +578,7 @@ bool env_sample(uint light, vec2 u, bool compensated, vec3 p_ref, out vec3 wi, o
   pdf = 0.0;
   le = vec3(0.0);
   uint mapping = light_at(light).data.w;
-  bool portal = (FEATURES2 & FEATURE2_ENV_PORTAL) != 0u && mapping == ENVMAP_PORTAL;
+  bool portal = has_feature2(FEATURE2_ENV_PORTAL) && mapping == ENVMAP_PORTAL;
   uint o = compensated ? light_at(light).data.z : light_at(light).data.y;
   uint nu = uint(tex_data_at(o)), nv = uint(tex_data_at(o + 1u));
   // Step 0: the marginal (func at o + 4, cdf after it); step 1: the conditional of row v.

@@ -35,7 +35,7 @@ float mis_bsdf(float pb, float pl) {
 // sampling unless the previous vertex could not sample lights (camera or specular).
 vec3 escaped_radiance(vec3 o, vec3 d, vec3 p_prev, bool unweighted, float pdf_prev) {
   vec3 L = vec3(0.0);
-  if ((FEATURES & (FEATURE_LIGHT_INFINITE | FEATURE_LIGHT_INFINITE_IMAGE)) != 0u) {
+  if (has_feature(FEATURE_LIGHT_INFINITE | FEATURE_LIGHT_INFINITE_IMAGE)) {
     uint n = min(globals.counts.y, MAX_INFINITE_LIGHTS);
     [[dont_unroll]] for (uint k = 0u; k < n; ++k) {
       uint li = globals.infinite_lights[k];
@@ -51,7 +51,11 @@ vec3 escaped_radiance(vec3 o, vec3 d, vec3 p_prev, bool unweighted, float pdf_pr
 // Whether paths carry ray differentials (textures-spec 3): only the texture footprint reads
 // them. A constant, so that the code under `RAY_DIFFS && ps.has_diff` goes with the
 // specialisation (has_diff alone is path state, which it cannot prove false).
-const bool RAY_DIFFS = (FEATURES & FEATURE_TEXTURES) != 0u;
+#ifdef BASALT_PLAIN
+const bool RAY_DIFFS = false;  // no textures in the plain builds (see BUMP_ENABLED)
+#else
+const bool RAY_DIFFS = feature_const(FEATURE_TEXTURES);
+#endif
 
 // The state of one path between bounces: everything path_bounce reads and writes (the
 // megakernel keeps it in registers, the wavefront stages in a storage buffer between
@@ -125,7 +129,7 @@ bool path_bounce(inout PathState ps, Hit hit) {
   vec3 wo = -ps.ray.d;
 
   // Emission of an area light hit by the path.
-  if ((FEATURES & FEATURE_LIGHT_AREA) != 0u && sp.light != INVALID_INDEX) {
+  if (has_feature(FEATURE_LIGHT_AREA) && sp.light != INVALID_INDEX) {
     vec3 Le = area_le(sp.light, sp.ng, wo);
     if (any_positive(Le)) {
       float w = 1.0;
@@ -178,7 +182,7 @@ bool path_bounce(inout PathState ps, Hit hit) {
   // site (see bsdf_query): step 0 NEE f (stream +7), 1 NEE pdf (+8), 2 sample (+9), 3 pdf
   // at the sampled wi when the sample's pdf is only proportional (+10).
   // Next-event estimation, unless the MIS mode samples the BSDF alone (path-spec 7.1).
-  bool nee = (FEATURES & FEATURE_ANY_LIGHT) != 0u && num_lights > 0u &&
+  bool nee = has_feature(FEATURE_ANY_LIGHT) && num_lights > 0u &&
              (bsdf_flags(bsdf) & (BSDF_DIFFUSE | BSDF_GLOSSY)) != 0u &&
              globals.render_opts.y != MIS_BSDF_ONLY;
   BounceSamples us = bounce_samples(px, py, s, dim);

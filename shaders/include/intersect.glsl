@@ -141,8 +141,8 @@ float intersect_triangle(Ray ray, RayTri rt, uint tri, out vec2 b12) {
 float intersect_prim(Ray ray, RayTri rt, uint ref, out vec2 b12) {
   b12 = vec2(0.0);
   if ((ref & PRIM_SPHERE_BIT) != 0u) {
-    if ((FEATURES & FEATURE_SPHERES) != 0u) return intersect_sphere(ray, ref & PRIM_INDEX_MASK);
-  } else if ((FEATURES & FEATURE_TRIANGLES) != 0u) {
+    if (has_feature(FEATURE_SPHERES)) return intersect_sphere(ray, ref & PRIM_INDEX_MASK);
+  } else if (has_feature(FEATURE_TRIANGLES)) {
     return intersect_triangle(ray, rt, ref, b12);
   }
   return -1.0;
@@ -271,8 +271,8 @@ Hit bvh_trace(Ray ray, bool any_hit) {
           b12 = vec2(0.0);
           t = -1.0;
           if ((ref & PRIM_SPHERE_BIT) != 0u) {
-            if ((FEATURES & FEATURE_SPHERES) != 0u) t = intersect_sphere(ray, ref & PRIM_INDEX_MASK);
-          } else if ((FEATURES & FEATURE_TRIANGLES) != 0u) {
+            if (has_feature(FEATURE_SPHERES)) t = intersect_sphere(ray, ref & PRIM_INDEX_MASK);
+          } else if (has_feature(FEATURE_TRIANGLES)) {
             t = intersect_triangle_at(ray, rt, q0.xyz, leaf_prim(3u * k + 1u).xyz,
                                       leaf_prim(3u * k + 2u).xyz, b12);
           }

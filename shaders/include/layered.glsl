@@ -71,7 +71,7 @@ BsdfSample bottom_query(Layers y, vec3 wo, vec3 wi, vec2 u, bool smp) {
   if (has_feature(FEATURE_MAT_COATED_CONDUCTOR) && y.conductor)
     return conductor_query(y.bottom_a, y.bottom_k, y.bottom, wo, wi, u, smp);
   BsdfSample r = no_sample();
-  if (!has_feature(FEATURE_MAT_COATED_DIFFUSE) || y.conductor) return r;
+  if (no_feature(FEATURE_MAT_COATED_DIFFUSE) || y.conductor) return r;
   if (smp) return diffuse_sample(y.bottom_a * INV_PI, wo, u);
   if (same_hemisphere(wo, wi)) {
     r.f = y.bottom_a * INV_PI;

@@ -51,7 +51,7 @@ bool light_infinite_extent(uint li) {
 
 // Whether the bounded lights are picked by importance (docs/path-spec.md 6.1).
 bool light_importance_on() {
-  return (FEATURES2 & FEATURE2_LIGHT_IMPORTANCE) != 0u &&
+  return has_feature2(FEATURE2_LIGHT_IMPORTANCE) &&
          globals.light_opts.x == LIGHT_SELECT_IMPORTANCE;
 }
 
@@ -204,8 +204,8 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
   switch (type) {
     case LIGHT_POINT:
     case LIGHT_SPOT:
-      if (((FEATURES & FEATURE_LIGHT_POINT) != 0u && type == LIGHT_POINT) ||
-          ((FEATURES & FEATURE_LIGHT_SPOT) != 0u && type == LIGHT_SPOT)) {
+      if ((has_feature(FEATURE_LIGHT_POINT) && type == LIGHT_POINT) ||
+          (has_feature(FEATURE_LIGHT_SPOT) && type == LIGHT_SPOT)) {
         vec3 pos = light_at(li).pos.xyz;
         vec3 dp = pos - p;
         float d2 = dot(dp, dp);
@@ -223,7 +223,7 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
       }
       break;
     case LIGHT_DISTANT:
-      if ((FEATURES & FEATURE_LIGHT_DISTANT) != 0u) {
+      if (has_feature(FEATURE_LIGHT_DISTANT)) {
         ls.wi = light_at(li).dir.xyz;
         ls.Li = L;
         ls.pdf = 1.0;
@@ -232,7 +232,7 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
       }
       break;
     case LIGHT_INFINITE_UNIFORM:
-      if ((FEATURES & FEATURE_LIGHT_INFINITE) != 0u) {
+      if (has_feature(FEATURE_LIGHT_INFINITE)) {
         ls.wi = uniform_sphere(u);
         ls.Li = L;
         ls.pdf = 1.0 / (4.0 * PI);
@@ -243,12 +243,12 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
       // Environment map: the MIS-compensated distribution, as pbrt-v4's path tracer asks
       // (allowIncompletePDF = true; docs/textures-spec.md section 6). The only env_sample
       // call of the render shader.
-      if ((FEATURES & FEATURE_LIGHT_INFINITE_IMAGE) != 0u) {
+      if (has_feature(FEATURE_LIGHT_INFINITE_IMAGE)) {
         ls.at_infinity = env_sample(li, u, true, p, ls.wi, ls.pdf, ls.Li);
       }
       break;
     case LIGHT_AREA_TRIANGLE:
-      if ((FEATURES & FEATURE_LIGHT_AREA) != 0u && (FEATURES & FEATURE_TRIANGLES) != 0u) {
+      if (has_feature(FEATURE_LIGHT_AREA) && has_feature(FEATURE_TRIANGLES)) {
         vec3 ns_unused;
         triangle_geometry(light_at(li).prim, uniform_triangle(u), ls.q, ls.nl, ns_unused, ls.m);
         vec3 dq = ls.q - p;
@@ -261,7 +261,7 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
       }
       break;
     case LIGHT_AREA_SPHERE:
-      if ((FEATURES & FEATURE_LIGHT_AREA) != 0u && (FEATURES & FEATURE_SPHERES) != 0u) {
+      if (has_feature(FEATURE_LIGHT_AREA) && has_feature(FEATURE_SPHERES)) {
         uint sph = light_at(li).prim;
         vec4 cr = sphere_at(sph).center_radius;
         vec3 c = cr.xyz;
@@ -324,10 +324,10 @@ LightSample light_sample(uint li, vec3 p, vec3 ng, float m, vec2 u) {
 // section 7; pbrt-v4 PDF_Li). Not multiplied by the pmf.
 float light_pdf(uint li, vec3 p_prev, vec3 ng_prev, float m_prev, vec3 q, vec3 nl, vec3 wi) {
   uint type = light_at(li).type;
-  if ((FEATURES & FEATURE_TRIANGLES) != 0u && type == LIGHT_AREA_TRIANGLE) {
+  if (has_feature(FEATURE_TRIANGLES) && type == LIGHT_AREA_TRIANGLE) {
     return area_to_solid_angle(p_prev, q, nl, wi, light_at(li).params.x);
   }
-  if ((FEATURES & FEATURE_SPHERES) != 0u && type == LIGHT_AREA_SPHERE) {
+  if (has_feature(FEATURE_SPHERES) && type == LIGHT_AREA_SPHERE) {
     vec4 cr = sphere_at(light_at(li).prim).center_radius;
     vec3 pc = p_prev - cr.xyz;
     float d2 = dot(pc, pc);
@@ -349,13 +349,13 @@ float light_pdf(uint li, vec3 p_prev, vec3 ng_prev, float m_prev, vec3 q, vec3 n
 vec3 infinite_light_le(uint li, vec3 o, vec3 p_prev, vec3 w, out float pl) {
   pl = 0.0;
   uint type = light_at(li).type;
-  if ((FEATURES & FEATURE_LIGHT_INFINITE_IMAGE) != 0u && type == LIGHT_INFINITE_IMAGE) {
+  if (has_feature(FEATURE_LIGHT_INFINITE_IMAGE) && type == LIGHT_INFINITE_IMAGE) {
     float pdf;
     vec3 le = env_eval(li, w, true, o, p_prev, pdf);
     pl = light_at(li).pmf * pdf;
     return le;
   }
-  if ((FEATURES & FEATURE_LIGHT_INFINITE) != 0u && type == LIGHT_INFINITE_UNIFORM) {
+  if (has_feature(FEATURE_LIGHT_INFINITE) && type == LIGHT_INFINITE_UNIFORM) {
     // Uniform infinite light: Le = L in every direction, light-sampling pdf 1 / (4 pi).
     pl = light_at(li).pmf / (4.0 * PI);
     return light_at(li).L.rgb;

@@ -36,12 +36,6 @@ const uint LOBE_FEATURES_DIFFUSE_TRANSMISSION = FEATURE_MAT_DIFFUSE_TRANSMISSION
 const uint LOBE_FEATURES_LAYERED = FEATURE_MAT_COATED_DIFFUSE | FEATURE_MAT_COATED_CONDUCTOR;
 const uint LOBE_FEATURES_MEASURED = FEATURE_MAT_MEASURED;
 
-// True if the scene's feature set includes one of `bits`. A macro, not a function: at each use
-// the test is then a constant expression of the specialization constant, which the host's
-// SPIR-V specialisation (host/vk/specialise.h) folds and removes the dead branch of; behind a
-// function parameter it stayed, and so did everything it guards.
-#define has_feature(bits) ((FEATURES & (bits)) != 0u)
-
 // BxDFReflTransFlags of pbrt-v4: which of reflection and transmission a sample may choose.
 const uint SAMPLE_R = BSDF_REFLECTION;
 const uint SAMPLE_T = BSDF_TRANSMISSION;

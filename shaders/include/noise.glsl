@@ -102,7 +102,7 @@ void noise_two_prod(float lambda, vec3 p, out vec3 hi, out vec3 lo) {
 // True if noise lookups use the split precision mode in this pipeline (FEATURE2_NOISE_SPLIT,
 // TEXOPT_NOISE_SPLIT).
 bool noise_split() {
-  return (FEATURES2 & FEATURE2_NOISE_SPLIT) != 0u &&
+  return has_feature2(FEATURE2_NOISE_SPLIT) &&
          (globals.texture_opts.x & TEXOPT_NOISE_SPLIT) != 0u;
 }
 

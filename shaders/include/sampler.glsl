@@ -361,26 +361,26 @@ float sampler_get(uint px, uint py, uint s, uint d) {
   uint type = globals.sampler_opts.x;
   uint ld, c;
   bool pair;
-  if ((FEATURES2 & FEATURE2_SAMPLERS) == 0u || type == SAMPLER_INDEPENDENT ||
+  if (no_feature2(FEATURE2_SAMPLERS) || type == SAMPLER_INDEPENDENT ||
       !sampler_dimension(d, ld, c, pair))
     return rng(px, py, s, d);
-  if ((FEATURES2 & FEATURE2_SAMPLER_STRATIFIED) != 0u && type == SAMPLER_STRATIFIED)
+  if (has_feature2(FEATURE2_SAMPLER_STRATIFIED) && type == SAMPLER_STRATIFIED)
     return stratified_get(px, py, s, ld, c, pair);
-  if ((FEATURES2 & FEATURE2_SAMPLER_HALTON) != 0u && type == SAMPLER_HALTON)
+  if (has_feature2(FEATURE2_SAMPLER_HALTON) && type == SAMPLER_HALTON)
     return halton_get(px, py, s, ld, c);
-  if ((FEATURES2 & FEATURE2_SAMPLER_PADDED_SOBOL) != 0u && type == SAMPLER_PADDED_SOBOL)
+  if (has_feature2(FEATURE2_SAMPLER_PADDED_SOBOL) && type == SAMPLER_PADDED_SOBOL)
     return padded_sobol_get(px, py, s, ld, c, pair);
-  if ((FEATURES2 & FEATURE2_SAMPLER_ZSOBOL) != 0u && type == SAMPLER_ZSOBOL)
+  if (has_feature2(FEATURE2_SAMPLER_ZSOBOL) && type == SAMPLER_ZSOBOL)
     return zsobol_get(px, py, s, ld, c);
-  if ((FEATURES2 & FEATURE2_SAMPLER_SOBOL) != 0u && type == SAMPLER_SOBOL)
+  if (has_feature2(FEATURE2_SAMPLER_SOBOL) && type == SAMPLER_SOBOL)
     return sobol_get(px, py, s, ld, c);
-  if ((FEATURES2 & FEATURE2_SAMPLER_PMJ02BN) != 0u && type == SAMPLER_PMJ02BN)
+  if (has_feature2(FEATURE2_SAMPLER_PMJ02BN) && type == SAMPLER_PMJ02BN)
     return pmj02bn_get(px, py, s, ld, c, pair);
   return rng(px, py, s, d);
 }
 
 // Whether the pipeline may run a sampler other than independent (FEATURE2_SAMPLER_*).
-const bool SAMPLERS_ENABLED = (FEATURES2 & FEATURE2_SAMPLERS) != 0u;
+const bool SAMPLERS_ENABLED = feature2_const(FEATURE2_SAMPLERS);
 
 // lavapipe inlines every call site, and before it folds FEATURES2: each sampler_get call
 // costs compile time even where it reduces to rng. So with SAMPLERS_ENABLED the camera and each

@@ -65,7 +65,7 @@ void triangle_params(uint tri, vec3 b, out vec2 uv, out vec3 dpdu, out vec3 dpdv
   bool degenerate = abs(det) < 1e-9;
   dndu = vec3(0.0);
   dndv = vec3(0.0);
-  if ((FEATURES & FEATURE_SHADING_NORMALS) != 0u && (mflags & SHAPE_FLAG_HAS_NORMALS) != 0u) {
+  if (has_feature(FEATURE_SHADING_NORMALS) && (mflags & SHAPE_FLAG_HAS_NORMALS) != 0u) {
     vec3 n0 = a.n_v.xyz, n1 = bb.n_v.xyz, n2 = c.n_v.xyz;
     if (degenerate) {
       // The Duff pair of the unnormalised dn (pbrt-v4 CoordinateSystem).
@@ -184,7 +184,7 @@ void triangle_geometry(uint tri, vec3 b, out vec3 p, out vec3 ng, out vec3 ns, o
   p = pp;
   m = max(mv.x, max(mv.y, mv.z));
   ng = safe_normalize(cross(p0 - p2, p1 - p2));
-  if ((FEATURES & FEATURE_SHADING_NORMALS) != 0u && (flags & SHAPE_FLAG_HAS_NORMALS) != 0u) {
+  if (has_feature(FEATURE_SHADING_NORMALS) && (flags & SHAPE_FLAG_HAS_NORMALS) != 0u) {
     precise vec3 n = b.x * vertex_n_v(T.v0).xyz + b.y * vertex_n_v(T.v1).xyz +
                      b.z * vertex_n_v(T.v2).xyz;
     ns = safe_normalize(n);
@@ -205,9 +205,9 @@ vec3 sphere_normal(uint sph, vec3 n) {
 // The material index of a closest hit's primitive (INVALID_INDEX: none).
 uint hit_material(Hit hit) {
   if ((hit.prim & PRIM_SPHERE_BIT) != 0u)
-    return (FEATURES & FEATURE_SPHERES) != 0u ? sphere_at(hit.prim & PRIM_INDEX_MASK).material
+    return has_feature(FEATURE_SPHERES) ? sphere_at(hit.prim & PRIM_INDEX_MASK).material
                                               : INVALID_INDEX;
-  return (FEATURES & FEATURE_TRIANGLES) != 0u ? mesh_at(triangle_at(hit.prim).mesh).material
+  return has_feature(FEATURE_TRIANGLES) ? mesh_at(triangle_at(hit.prim).mesh).material
                                               : INVALID_INDEX;
 }
 
@@ -233,7 +233,7 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
   vec3 dpdv = vec3(0.0);
   vec2 uv = vec2(0.0);
   if ((hit.prim & PRIM_SPHERE_BIT) != 0u) {
-    if ((FEATURES & FEATURE_SPHERES) != 0u) {
+    if (has_feature(FEATURE_SPHERES)) {
       uint sph = hit.prim & PRIM_INDEX_MASK;
       vec4 cr = sphere_at(sph).center_radius;
       precise vec3 p = ray.o + hit.t * ray.d;
@@ -247,7 +247,7 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
       sp.material = hit_material(hit);
       sp.light = sphere_at(sph).light;
       dpdu = sphere_dpdu(sph, sp.p);
-      if ((FEATURES & FEATURE_TEXTURES) != 0u) {
+      if (has_feature(FEATURE_TEXTURES)) {
         sphere_uv(sph, sp.p, uv, dpdv);
         // textures-spec 3.2: dpdu / (s r), not flipped with the normal.
         precise float sr = sphere_at(sph).axis_x.w * cr.w;
@@ -257,12 +257,12 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
         sp.dndv = ndv;
       }
     }
-  } else if ((FEATURES & FEATURE_TRIANGLES) != 0u) {
+  } else if (has_feature(FEATURE_TRIANGLES)) {
     uint tri = hit.prim;
     triangle_geometry(tri, vec3(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2), sp.p, sp.ng, sp.ns, sp.m);
     Mesh m = mesh_at(triangle_at(tri).mesh);
     sp.material = hit_material(hit);
-    vertex_normals = (FEATURES & FEATURE_SHADING_NORMALS) != 0u &&
+    vertex_normals = has_feature(FEATURE_SHADING_NORMALS) &&
                      (m.flags & SHAPE_FLAG_HAS_NORMALS) != 0u;
     sp.light = m.light_base == INVALID_INDEX ? INVALID_INDEX : m.light_base + (tri - m.tri_base);
     // uv and dpdv are dead (and folded away) without FEATURE_TEXTURES.
@@ -270,7 +270,7 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
                     sp.dndv);
   }
   shading_frame(sp.ns, dpdu, sp.t1, sp.t2);
-  if ((FEATURES & FEATURE_TEXTURES) != 0u) {
+  if (has_feature(FEATURE_TEXTURES)) {
     sp.tex.p = sp.p;
     sp.tex.n = sp.ng;
     sp.tex.uv = uv;
@@ -281,7 +281,7 @@ SurfacePoint surface_point(Ray ray, Hit hit, bool has_diff, RayDiff rd) {
     compute_differentials(sp.tex, du, dv, has_diff, rd);
     sp.sdpdu = du;
     sp.sdpdv = dv;
-    if ((FEATURES2 & (FEATURE2_BUMP | FEATURE2_NORMALMAP | FEATURE2_VTURB)) != 0u && vertex_normals)
+    if (has_feature2(FEATURE2_BUMP | FEATURE2_NORMALMAP | FEATURE2_VTURB) && vertex_normals)
       shading_pair_vertex_normals(sp.ns, sp.sdpdu, sp.sdpdv);
   }
   return sp;

@@ -75,7 +75,7 @@ TexCoord2D tex_map_2d(uint ti, TexCtx c) {
     r.st = st;
     return r;
   }
-  if ((FEATURES2 & FEATURE2_TEX_MAP_CURVED) == 0u) return r;  // no such mapping in the scene
+  if (no_feature2(FEATURE2_TEX_MAP_CURVED)) return r;  // no such mapping in the scene
   precise float x2y2 = pt.x * pt.x + pt.y * pt.y;
   precise vec3 dsdp = vec3(-pt.y, pt.x, 0.0) / (2.0 * PI * x2y2);
   if (mapping == MAPPING_SPHERICAL) {
@@ -301,14 +301,14 @@ vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
   // whole interpreter is inlined at its call site, and without the code of the families a
   // scene does not use lavapipe renders textures-image 25-45% and textures-procedural 11%
   // faster (8 spp, 3 runs each).
-  if ((FEATURES2 & FEATURE2_TEX_CHECKER_AA) != 0u && type == TEXTURE_CHECKERBOARD) {
+  if (has_feature2(FEATURE2_TEX_CHECKER_AA) && type == TEXTURE_CHECKERBOARD) {
     float w = tex_checkerboard(ti, c);
     vec3 t1 = w != 1.0 ? a0 : vec3(0.0);
     vec3 t2 = w != 0.0 ? a1 : vec3(0.0);
     precise vec3 r = (1.0 - w) * t1 + w * t2;
     return r;
   }
-  if ((FEATURES2 & FEATURE2_TEX_PROCEDURAL) != 0u) switch (type) {
+  if (has_feature2(FEATURE2_TEX_PROCEDURAL)) switch (type) {
     case TEXTURE_SCALE: {
       float sc = a1.x;
       precise vec3 r = a0 * sc;
@@ -337,8 +337,8 @@ vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
       return r;
     }
   }
-  if ((FEATURES & FEATURE_TEX_IMAGE) != 0u && type == TEXTURE_IMAGEMAP) return tex_image(ti, c);
-  if ((FEATURES2 & FEATURE2_TEX_SHIRLEY) != 0u && type >= TEXTURE_STRIPE && type <= TEXTURE_VOLUME) {
+  if (has_feature(FEATURE_TEX_IMAGE) && type == TEXTURE_IMAGEMAP) return tex_image(ti, c);
+  if (has_feature2(FEATURE2_TEX_SHIRLEY) && type >= TEXTURE_STRIPE && type <= TEXTURE_VOLUME) {
     // Shirley's solid textures (docs/textures-spec.md 7): one shirley_noise_sum call site
     // (solidnoise, solidturbulence, turbulentstripe), one sin_pi call site (stripe,
     // turbulentstripe), one array lookup (interpimage, volume).
@@ -374,7 +374,7 @@ vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
     precise vec3 r = w1 * t1 + w2 * t2;
     return r;
   }
-  if ((FEATURES & FEATURE_TEX_NOISE) != 0u) {
+  if (has_feature(FEATURE_TEX_NOISE)) {
     switch (type) {
       case TEXTURE_DOTS:
         return tex_inside_polka_dot(tex_map_2d(ti, c).st) ? a0 : a1;
@@ -430,7 +430,7 @@ int tex_child_count(uint type) {
 
 // Value of the rgb texture program with root instruction root.
 vec3 tex_eval_rgb(uint root, TexCtx c) {
-  if ((FEATURES & FEATURE_TEXTURES) == 0u || root >= uint(textures.length())) return vec3(0.0);
+  if (no_feature(FEATURE_TEXTURES) || root >= uint(textures.length())) return vec3(0.0);
   vec3 stack[MAX_TEXTURE_STACK];
   int top = 0;
   [[dont_unroll]] for (uint i = texture_at(root).first; i <= root; ++i) {

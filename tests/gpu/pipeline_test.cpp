@@ -16,6 +16,9 @@
 #include "common/test_util.h"
 #include "cpu/intersect.h"
 #include "shaders/render_lean.spv.h"
+#include "shaders/render_lean_plain.spv.h"
+#include "shaders/wavefront_shade.spv.h"
+#include "shaders/wavefront_shade_plain.spv.h"
 #include "shaders/trace.spv.h"
 #include "vk/gpu_renderer.h"
 #include "vk/specialise.h"
@@ -271,6 +274,81 @@ TEST(LeanVariant, NeverForOtherMaterials) {
                           f != gpu::FEATURE_MAT_MEASURED;
     EXPECT_EQ(vkx::GpuRenderer::lean_suffices(gpu::FEATURE_MAT_DIFFUSE | f), !material) << bit;
   }
+}
+
+// The plain builds (render_lean_plain, wavefront_*_plain: no texture, image-light or bump code,
+// pruned at build time by tools/spirv_prune.cpp) render, bit for bit, what the textured builds
+// render: the Cornell box and spheres-lights through the lean megakernel, materials-coated
+// (coated diffuse and conductor, dielectric) through the wavefront stages.
+TEST(PlainVariant, SameImageAsTheTexturedBuilds) {
+  for (const char* file : {"scenes/cornell-box.pbrt", "scenes/spheres-lights.pbrt",
+                           "scenes/materials-coated.pbrt"}) {
+    SceneTables t = tables_from_file(source_path(file), 48, 32);
+    ASSERT_TRUE(vkx::GpuRenderer::plain_suffices(t.features, t.features2)) << file;
+    auto& ctx = gpu_context();
+    const std::size_t before = ctx.validation_errors();
+    std::vector<glm::vec4> image[2];
+    for (int plain = 0; plain < 2; ++plain) {
+      vkx::GpuRenderer::plain_builds = plain == 1;
+      vkx::GpuRenderer gpu(ctx, t);
+      EXPECT_EQ(gpu.plain, plain == 1) << file;
+      gpu.render(0, 2);
+      image[plain] = gpu.accum();
+    }
+    vkx::GpuRenderer::plain_builds = true;
+    EXPECT_EQ(ctx.validation_errors(), before);
+    ASSERT_EQ(image[0].size(), image[1].size());
+    EXPECT_EQ(std::memcmp(image[0].data(), image[1].data(), image[0].size() * sizeof(glm::vec4)),
+              0)
+        << file;
+  }
+}
+
+// A scene with a texture, an image light, or a bump, normal or vector-turbulence map never
+// gets the plain builds; every other feature bit keeps them.
+TEST(PlainVariant, NeverForTexturesImageLightsOrBumps) {
+  for (const char* file : {"scenes/textures-procedural.pbrt", "scenes/envmap.pbrt",
+                           "scenes/bump.pbrt", "scenes/normalmap.pbrt", "scenes/vturb.pbrt"}) {
+    SceneTables t = tables_from_file(source_path(file), 8, 8);
+    EXPECT_FALSE(vkx::GpuRenderer::plain_suffices(t.features, t.features2)) << file;
+  }
+  for (std::uint32_t bit = 0; bit < 32; ++bit) {
+    const std::uint32_t f = 1u << bit;
+    const bool texture = f == gpu::FEATURE_TEXTURES || f == gpu::FEATURE_TEX_NOISE ||
+                         f == gpu::FEATURE_TEX_IMAGE || f == gpu::FEATURE_LIGHT_INFINITE_IMAGE;
+    EXPECT_EQ(vkx::GpuRenderer::plain_suffices(f, 0u), !texture) << "feature bit " << bit;
+    // The second word: the texture families and bumps out; the noise precision mode (set
+    // without noise textures too), the samplers and the light importance in.
+    const bool sampling = f == gpu::FEATURE2_NOISE_SPLIT || (f & gpu::FEATURE2_SAMPLERS) != 0u ||
+                          f == gpu::FEATURE2_LIGHT_IMPORTANCE;
+    EXPECT_EQ(vkx::GpuRenderer::plain_suffices(0u, f), sampling) << "feature2 bit " << bit;
+  }
+  SceneTables t = tables_from_file(source_path("scenes/textures-procedural.pbrt"), 8, 8);
+  vkx::GpuRenderer gpu(gpu_context(), t);
+  EXPECT_FALSE(gpu.plain);
+}
+
+// The build removed the code the plain variants rule out: image maps, noise, the bump and the
+// image light are gone from the modules (their OpName strings with them; what is left of the
+// texture interpreter is its entry, which returns at once), the rest of the path stays, and
+// the modules are at least a quarter smaller.
+TEST(PlainVariant, PrunedAtBuildTime) {
+  auto names = [](const std::uint32_t* words, std::size_t bytes, const std::string& name) {
+    return std::string(reinterpret_cast<const char*>(words), bytes).find(name + "(") !=
+           std::string::npos;
+  };
+  for (const char* f : {"tex_image", "perlin_noise", "bump_map", "env_eval"}) {
+    EXPECT_TRUE(names(render_lean_spv, sizeof(render_lean_spv), f)) << f;
+    EXPECT_FALSE(names(render_lean_plain_spv, sizeof(render_lean_plain_spv), f)) << f;
+  }
+  for (const char* f : {"tex_image", "perlin_noise", "bump_map"}) {  // (misses: the extend stage)
+    EXPECT_TRUE(names(wavefront_shade_spv, sizeof(wavefront_shade_spv), f)) << f;
+    EXPECT_FALSE(names(wavefront_shade_plain_spv, sizeof(wavefront_shade_plain_spv), f)) << f;
+  }
+  EXPECT_TRUE(names(render_lean_plain_spv, sizeof(render_lean_plain_spv), "path_bounce"));
+  EXPECT_TRUE(names(wavefront_shade_plain_spv, sizeof(wavefront_shade_plain_spv), "layered_f"));
+  EXPECT_LT(sizeof(render_lean_plain_spv), sizeof(render_lean_spv) * 3 / 4);
+  EXPECT_LT(sizeof(wavefront_shade_plain_spv), sizeof(wavefront_shade_spv) * 3 / 4);
 }
 
 // The feature set names what the scene uses, and only that.
