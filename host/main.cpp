@@ -213,6 +213,7 @@ int run(const Options& opt) {
     st.seconds_specialise = gpu.seconds_specialise;
     st.table_bytes = gpu.device_bytes;
     st.shader_variant = gpu.variant;
+    st.shader_plain = gpu.plain;
     t0 = Clock::now();
     bar.restart();
     gpu.render(0, std::uint32_t(st.spp), progress);

@@ -70,6 +70,11 @@ foreach(device lavapipe cpu)
   elseif(device STREQUAL "cpu" AND NOT jerr)
     fail("stats on cpu: shader_variant '${variant}' reported for the CPU reference")
   endif()
+  # ... and, without textures, its plain build (pruned at build time).
+  string(JSON plain ERROR_VARIABLE jerr GET "${json}" shader_plain)
+  if(device STREQUAL "lavapipe" AND NOT plain STREQUAL "ON")
+    fail("stats on lavapipe: shader_plain '${plain}' (${jerr}), expected true")
+  endif()
 endforeach()
 
 # A scene with a conductor needs more than the lean megakernel: by default it renders through

@@ -52,7 +52,8 @@ std::string to_json(const RenderStats& st) {
   if (st.seconds_specialise > 0)
     o << "  \"seconds_specialise\": " << number(st.seconds_specialise) << ",\n";
   if (!st.shader_variant.empty())
-    o << "  \"shader_variant\": " << quote(st.shader_variant) << ",\n";
+    o << "  \"shader_variant\": " << quote(st.shader_variant) << ",\n"
+      << "  \"shader_plain\": " << (st.shader_plain ? "true" : "false") << ",\n";
   o << "  \"seconds_render\": " << number(st.seconds_render) << ",\n";
   o << "  \"seconds_to_first_pass\": " << number(st.seconds_to_first_pass) << ",\n";
   o << "  \"samples_per_second\": " << number(st.samples_per_second) << ",\n";

@@ -11,6 +11,7 @@ namespace basalt {
 struct RenderStats {
   std::string device, driver, scene;
   std::string shader_variant;  // Vulkan render shader build ("lean" or "full"); empty on cpu
+  bool shader_plain = false;   // the plain build of it (no texture, image-light or bump code)
   int width = 0, height = 0, spp = 0, seed = 0;
   double seconds_parse = 0, seconds_bvh = 0, seconds_upload = 0, seconds_pipeline = 0,
          seconds_render = 0;
