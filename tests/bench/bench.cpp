@@ -164,6 +164,8 @@ enum Config : int {
                          // scene without textures would pay if they were not specialised away)
   kBumpForced = 4,       // scene's features plus the bump, normal-map and vector-turbulence
                          // code (FEATURES2; registered for textured scenes without them)
+  kTexturedBuild = 5,    // scene's features, the textured build of the lean or wavefront
+                         // shaders where the plain one would do (registered for plain scenes)
 };
 
 /// Pipeline creation (with the driver's compile at first dispatch) and render speed for one
@@ -192,12 +194,15 @@ void BM_Specialisation(benchmark::State& state, std::string path) {
   double pipeline = 0, rays = 0;
   for (auto _ : state) {
     state.PauseTiming();
+    basalt::vkx::GpuRenderer::plain_builds = config != kTexturedBuild;
     basalt::vkx::GpuRenderer gpu(context(), used, features, variant);
+    basalt::vkx::GpuRenderer::plain_builds = true;
     state.SetLabel(std::string(config == kAllFeatures      ? "all features, "
                                : config == kTexturesForced ? "texture code forced in, "
                                : config == kBumpForced     ? "bump code forced in, "
+                               : config == kTexturedBuild  ? "textured build, "
                                                            : "specialised, ") +
-                   gpu.variant + " shader");
+                   gpu.variant + (gpu.plain ? " shader, plain build" : " shader"));
     pipeline += gpu.seconds_pipeline;
     state.ResumeTiming();
     gpu.render(0, kSpp);
@@ -413,6 +418,10 @@ void register_all() {
                                         basalt::gpu::FEATURE2_NORMALMAP | basalt::gpu::FEATURE2_VTURB;
     if ((tables(f).features & basalt::gpu::FEATURE_TEXTURES) && !(tables(f).features2 & kBumpBits))
       spec->Arg(kBumpForced);
+    // Scenes of the plain builds: measure the textured build too (the build-time pruning's
+    // saving, which is spirv-opt's time at the scene: both caches are off here).
+    if (basalt::vkx::GpuRenderer::plain_suffices(tables(f).features, tables(f).features2))
+      spec->Arg(kTexturedBuild);
     // Diffuse-only scenes get the lean shader: measure the full one too (the saving).
     if (basalt::vkx::GpuRenderer::lean_suffices(tables(f).features)) spec->Arg(kSpecialisedFull);
     spec->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
