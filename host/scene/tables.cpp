@@ -851,67 +851,9 @@ SceneTables build_tables_impl(const Scene& scene, Scene* release, BuildTimes* ti
                            "a bump or normal map on a child of a pbrt-v3 weighted mix is not "
                            "supported (pbrt-v3 bumps each child in its own frame)");
     t.features |= material_feature(m.type);
-    // docs/bump-spec.md 2: bump and normal maps need the texture context and its footprint.
-    if (m.flags & gpu::MATFLAG_NORMALMAP) {
-      t.features |= gpu::FEATURE_TEXTURES;
-      t.features2 |= gpu::FEATURE2_NORMALMAP;
-    } else if (m.flags & gpu::MATFLAG_BUMP) {
-      t.features |= gpu::FEATURE_TEXTURES;
-      t.features2 |= gpu::FEATURE2_BUMP;
-    }
-    if (m.flags & gpu::MATFLAG_VTURB) {  // bump-spec 9
-      t.features |= gpu::FEATURE_TEXTURES;
-      t.features2 |= gpu::FEATURE2_VTURB;
-    }
-    for (std::uint32_t slot = 0; slot < gpu::MATERIAL_SLOTS; ++slot) {
-      const std::uint32_t root = m.texture[slot / 4][slot % 4];
-      if (root == INVALID_INDEX) continue;
-      for (std::uint32_t i = t.textures[root].first; i <= root; ++i) {
-        t.features |= gpu::FEATURE_TEXTURES;
-        const std::uint32_t mapping = t.textures[i].flags & gpu::TEXFLAG_MAPPING_MASK;
-        if (mapping == gpu::MAPPING_SPHERICAL || mapping == gpu::MAPPING_CYLINDRICAL)
-          t.features2 |= gpu::FEATURE2_TEX_MAP_CURVED;
-        switch (t.textures[i].type) {
-          case gpu::TEXTURE_FBM:
-          case gpu::TEXTURE_WRINKLED:
-          case gpu::TEXTURE_WINDY:
-          case gpu::TEXTURE_MARBLE:
-            t.features |= gpu::FEATURE_TEX_NOISE;
-            break;
-          case gpu::TEXTURE_DOTS:  // pbrt-v4 places its dots with Perlin noise
-            t.features |= gpu::FEATURE_TEX_NOISE;
-            t.features2 |= gpu::FEATURE2_TEX_PROCEDURAL;
-            break;
-          case gpu::TEXTURE_CHECKERBOARD:
-            t.features2 |= gpu::FEATURE2_TEX_CHECKER_AA;
-            break;
-          case gpu::TEXTURE_IMAGEMAP:
-            t.features |= gpu::FEATURE_TEX_IMAGE;
-            if (((t.textures[i].flags & gpu::TEXFLAG_FILTER_MASK) >> gpu::TEXFLAG_FILTER_SHIFT) ==
-                gpu::FILTER_EWA)
-              t.features2 |= gpu::FEATURE2_TEX_EWA;
-            break;
-          case gpu::TEXTURE_CONSTANT:
-            break;
-          // Shirley's solid textures (docs/textures-spec.md 7); the noise ones also use the
-          // noise family's bit (layout.h).
-          case gpu::TEXTURE_SHIRLEY_NOISE:
-          case gpu::TEXTURE_SHIRLEY_TURBULENCE:
-          case gpu::TEXTURE_TURBULENT_STRIPE:
-            t.features |= gpu::FEATURE_TEX_NOISE;
-            t.features2 |= gpu::FEATURE2_TEX_SHIRLEY;
-            break;
-          case gpu::TEXTURE_STRIPE:
-          case gpu::TEXTURE_IMAGE_INTERP:
-          case gpu::TEXTURE_VOLUME:
-            t.features2 |= gpu::FEATURE2_TEX_SHIRLEY;
-            break;
-          default:
-            t.features2 |= gpu::FEATURE2_TEX_PROCEDURAL;
-            break;
-        }
-      }
-    }
+    const glm::uvec2 tex = material_texture_features(t, m);
+    t.features |= tex.x;
+    t.features2 |= tex.y;
   }
   if (cam.lens_radius > 0.0f) t.features |= gpu::FEATURE_THIN_LENS;
   // Noise lookups in split precision by default (docs/textures-spec.md 2.1); --noise-precision
@@ -1083,6 +1025,72 @@ std::vector<std::pair<std::string, std::string>> apply_path_knobs(SceneTables& t
                                                                    : std::to_string(roulette_start));
   knobs.emplace_back("mis", kMis[t.globals.render_opts.y]);
   return knobs;
+}
+
+glm::uvec2 material_texture_features(const SceneTables& t, const gpu::Material& m) {
+  glm::uvec2 f(0u);
+  // docs/bump-spec.md 2: bump and normal maps need the texture context and its footprint.
+  if (m.flags & gpu::MATFLAG_NORMALMAP) {
+    f.x |= gpu::FEATURE_TEXTURES;
+    f.y |= gpu::FEATURE2_NORMALMAP;
+  } else if (m.flags & gpu::MATFLAG_BUMP) {
+    f.x |= gpu::FEATURE_TEXTURES;
+    f.y |= gpu::FEATURE2_BUMP;
+  }
+  if (m.flags & gpu::MATFLAG_VTURB) {  // bump-spec 9
+    f.x |= gpu::FEATURE_TEXTURES;
+    f.y |= gpu::FEATURE2_VTURB;
+  }
+  for (std::uint32_t slot = 0; slot < gpu::MATERIAL_SLOTS; ++slot) {
+    const std::uint32_t root = m.texture[slot / 4][slot % 4];
+    if (root == INVALID_INDEX) continue;
+    for (std::uint32_t i = t.textures[root].first; i <= root; ++i) {
+      f.x |= gpu::FEATURE_TEXTURES;
+      const std::uint32_t mapping = t.textures[i].flags & gpu::TEXFLAG_MAPPING_MASK;
+      if (mapping == gpu::MAPPING_SPHERICAL || mapping == gpu::MAPPING_CYLINDRICAL)
+        f.y |= gpu::FEATURE2_TEX_MAP_CURVED;
+      switch (t.textures[i].type) {
+        case gpu::TEXTURE_FBM:
+        case gpu::TEXTURE_WRINKLED:
+        case gpu::TEXTURE_WINDY:
+        case gpu::TEXTURE_MARBLE:
+          f.x |= gpu::FEATURE_TEX_NOISE;
+          break;
+        case gpu::TEXTURE_DOTS:  // pbrt-v4 places its dots with Perlin noise
+          f.x |= gpu::FEATURE_TEX_NOISE;
+          f.y |= gpu::FEATURE2_TEX_PROCEDURAL;
+          break;
+        case gpu::TEXTURE_CHECKERBOARD:
+          f.y |= gpu::FEATURE2_TEX_CHECKER_AA;
+          break;
+        case gpu::TEXTURE_IMAGEMAP:
+          f.x |= gpu::FEATURE_TEX_IMAGE;
+          if (((t.textures[i].flags & gpu::TEXFLAG_FILTER_MASK) >> gpu::TEXFLAG_FILTER_SHIFT) ==
+              gpu::FILTER_EWA)
+            f.y |= gpu::FEATURE2_TEX_EWA;
+          break;
+        case gpu::TEXTURE_CONSTANT:
+          break;
+        // Shirley's solid textures (docs/textures-spec.md 7); the noise ones also use the
+        // noise family's bit (layout.h).
+        case gpu::TEXTURE_SHIRLEY_NOISE:
+        case gpu::TEXTURE_SHIRLEY_TURBULENCE:
+        case gpu::TEXTURE_TURBULENT_STRIPE:
+          f.x |= gpu::FEATURE_TEX_NOISE;
+          f.y |= gpu::FEATURE2_TEX_SHIRLEY;
+          break;
+        case gpu::TEXTURE_STRIPE:
+        case gpu::TEXTURE_IMAGE_INTERP:
+        case gpu::TEXTURE_VOLUME:
+          f.y |= gpu::FEATURE2_TEX_SHIRLEY;
+          break;
+        default:
+          f.y |= gpu::FEATURE2_TEX_PROCEDURAL;
+          break;
+      }
+    }
+  }
+  return f;
 }
 
 void release_bulk_tables(SceneTables& t) {

@@ -75,6 +75,13 @@ SceneTables build_tables_releasing_meshes(Scene& scene, BuildTimes* times = null
                                           std::vector<std::string>* warnings = nullptr,
                                           bool cpu_tree = true);
 
+/// \brief The texture feature bits of material \p m of tables \p t (x: FEATURE_TEXTURES,
+///        FEATURE_TEX_NOISE, FEATURE_TEX_IMAGE; y: the FEATURE2_* texture families, bump,
+///        normal map and vector turbulence): those of its own slots' texture programs and
+///        flags, not of a mix's children. build_tables ORs them over the materials the shapes
+///        reach; the wavefront over the materials each shade group shades.
+glm::uvec2 material_texture_features(const SceneTables& t, const gpu::Material& m);
+
 /// \brief Frees the large tables of \p t (BVH, primitives, vertices, texels, shared texture
 /// and measured-BRDF data), keeping the small ones (globals, materials, lights, textures, ...):
 /// for a caller whose tables are on a device and no longer read on the host.

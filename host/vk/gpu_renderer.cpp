@@ -160,6 +160,13 @@ std::uint32_t wf_group(std::uint32_t type) {
   return 0;
 }
 constexpr std::uint32_t kWfGroups = 3;
+// The texture families a shade group is specialised for by its materials' textures alone
+// (GpuRenderer::wf_shade_features): of the first feature word and of the second.
+constexpr std::uint32_t kTexFamilies = gpu::FEATURE_TEX_NOISE | gpu::FEATURE_TEX_IMAGE;
+constexpr std::uint32_t kTexFamilies2 =
+    gpu::FEATURE2_TEX_EWA | gpu::FEATURE2_TEX_CHECKER_AA | gpu::FEATURE2_TEX_PROCEDURAL |
+    gpu::FEATURE2_TEX_SHIRLEY | gpu::FEATURE2_TEX_MAP_CURVED | gpu::FEATURE2_BUMP |
+    gpu::FEATURE2_NORMALMAP | gpu::FEATURE2_VTURB;
 
 }  // namespace
 
@@ -285,7 +292,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
                                                   .range = texels * v.texel_bytes}));
   }
   seconds_upload = since(t0);
-  if (uploaded) uploaded();  // from here on only t.materials and the feature words are read
+  if (uploaded) uploaded();  // from here on only materials, textures and feature words are read
 
   if (!render_pipeline) return;  // probes only: their pipeline is built by probe()
   t0 = Clock::now();
@@ -332,6 +339,15 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     const std::uint32_t layered = material_feature(gpu::MATERIAL_COATED_DIFFUSE) |
                                   material_feature(gpu::MATERIAL_COATED_CONDUCTOR);
     wf_mix_group_ = (wf_mix_bits_ & layered) == 0 ? 0u : wf_group(gpu::MATERIAL_MIX);
+    // The texture families of each group's materials (the mixes' group: of what they reach):
+    // a shade pipeline is specialised without the other groups' (wf_shade_features).
+    wf_tex_bits_.assign(kWfGroups, glm::uvec2(0u));
+    for (std::uint32_t m = 0; m < t.materials.size(); ++m) {
+      const glm::uvec2 bits = material_texture_features(t, t.materials[m]);
+      const std::uint32_t type = t.materials[m].type;
+      if (type < gpu::MATERIAL_TYPE_COUNT) wf_tex_bits_[wf_group_of(type)] |= bits;
+      if (reached[m]) wf_tex_bits_[wf_mix_group_] |= bits;
+    }
     wf_shade_.resize(kWfGroups);
     // The stages the scene needs: extend, and the shade group of each material type present
     // (and MATERIAL_NONE's, for shapes without a material).
@@ -568,15 +584,27 @@ std::uint32_t GpuRenderer::wf_shade_features(std::uint32_t group) const {
   if (group != wf_group(gpu::MATERIAL_MIX))
     for (std::uint32_t t = 0; t < gpu::MATERIAL_TYPE_COUNT; ++t)
       if (wf_group(t) == group) bits |= material_feature(t);
-  return (wf_features_ & ~material_bits()) | (wf_features_ & bits);
+  // Of the texture families, those of the group's materials: the group's pipeline evaluates
+  // no other material's textures. FEATURE_TEXTURES itself stays the scene's (every bounce
+  // carries the ray differentials that the next hit's footprint needs, whatever its group).
+  const std::uint32_t families = group_texture_features ? kTexFamilies : 0u;
+  const std::uint32_t tex = wf_tex_bits_.empty() ? ~0u : wf_tex_bits_[group].x;
+  return (wf_features_ & ~material_bits() & ~families) | (wf_features_ & bits) |
+         (wf_features_ & families & tex);
+}
+
+std::uint32_t GpuRenderer::wf_shade_features2(std::uint32_t group) const {
+  const std::uint32_t families = group_texture_features ? kTexFamilies2 : 0u;
+  const std::uint32_t tex = wf_tex_bits_.empty() ? ~0u : wf_tex_bits_[group].y;
+  return (wf_features2_ & ~families) | (wf_features2_ & families & tex);
 }
 
 GpuRenderer::Pipeline GpuRenderer::make_wf_shade(std::uint32_t group) {
   return plain ? make_pipeline(wavefront_shade_plain_spv, sizeof(wavefront_shade_plain_spv),
-                               wf_shade_features(group), wf_features2_, wf_bindings_,
+                               wf_shade_features(group), wf_shade_features2(group), wf_bindings_,
                                wf_path_view_)
                : make_pipeline(wavefront_shade_spv, sizeof(wavefront_shade_spv),
-                               wf_shade_features(group), wf_features2_, wf_bindings_,
+                               wf_shade_features(group), wf_shade_features2(group), wf_bindings_,
                                wf_path_view_);
 }
 

@@ -38,8 +38,8 @@ class GpuRenderer {
   /// \throws std::invalid_argument if \p variant is lean and lean_suffices(features) is false.
   /// \param render_pipeline false: upload only, for probe() (render() then throws).
   /// \param uploaded called once the tables are on the device, before any pipeline is made:
-  ///        after it the constructor reads only \p tables' materials and feature words (the
-  ///        command line frees the large host tables there, for its peak memory).
+  ///        after it the constructor reads only \p tables' materials, textures and feature
+  ///        words (the command line frees the large host tables there, for its peak memory).
   GpuRenderer(Context& ctx, const SceneTables& tables, std::uint32_t features,
               ShaderVariant variant = ShaderVariant::automatic, bool render_pipeline = true,
               const std::function<void()>& uploaded = {});
@@ -101,6 +101,14 @@ class GpuRenderer {
   static bool plain_suffices(std::uint32_t features, std::uint32_t features2);
   /// Tests set this false to compare the plain builds with the full ones.
   static inline bool plain_builds = true;
+  /// Tests set this false to specialise every shade group for all the scene's texture families.
+  static inline bool group_texture_features = true;
+  /// \brief The feature words the shade pipeline of MATERIAL_* \p type is specialised for
+  ///        (wavefront only: the scene's, with the material bits and the texture families of
+  ///        its group).
+  std::pair<std::uint32_t, std::uint32_t> shade_feature_words(std::uint32_t type) const {
+    return {wf_shade_features(wf_group_of(type)), wf_shade_features2(wf_group_of(type))};
+  }
   /// Paths of a wavefront wave (at most; a wave is one sample of up to this many pixel slots).
   static inline std::uint32_t wavefront_capacity = 65536;
 
@@ -169,6 +177,10 @@ class GpuRenderer {
   /// \brief The feature word shade group \p group is specialised for: the scene's, with only
   ///        the material bits of the group's types.
   std::uint32_t wf_shade_features(std::uint32_t group) const;
+  /// \brief Its second word: the scene's, with only the texture families of the group's
+  ///        materials.
+  std::uint32_t wf_shade_features2(std::uint32_t group) const;
+  std::vector<glm::uvec2> wf_tex_bits_;  // per group: material_texture_features of its materials
   std::mutex stats_mutex_;  // seconds_specialise, added to by make_pipeline on several threads
   /// \brief Runs sample \p s of the \p n slots from \p slot0 through the wavefront stages.
   void wf_wave(std::uint32_t s, std::uint32_t slot0, std::uint32_t n);

@@ -270,5 +270,42 @@ TEST(TextureFeatures, OnlyWhatTheSceneReaches) {
                              gpu::FEATURE2_TEX_MAP_CURVED | gpu::FEATURE2_NOISE_SPLIT);
 }
 
+// Each material's own texture families (the wavefront specialises a shade group for its
+// materials' alone): noise for the fbm-scaled diffuse, the procedural family for the coated
+// material's bilerp, the image and EWA bits for the conductor's image map, the bump bit for a
+// displacement; none for an untextured material. Their union over the materials is the
+// scene's (build_tables), less the split-precision bit that noise adds scene-wide.
+TEST(TextureFeatures, OfEachMaterial) {
+  const SceneTables t = textured_scene(
+      "Texture \"f\" \"float\" \"fbm\"\n"
+      "Texture \"s\" \"spectrum\" \"scale\" \"rgb tex\" [ 0.5 0.4 0.3 ] \"texture scale\" \"f\"\n"
+      "Material \"diffuse\" \"texture reflectance\" \"s\"\nShape \"sphere\"\n"
+      "Texture \"b\" \"spectrum\" \"bilerp\" \"rgb v00\" [ 0.9 0.1 0.1 ]\n"
+      "Material \"coateddiffuse\" \"texture reflectance\" \"b\"\nShape \"sphere\"\n"
+      "Texture \"i\" \"float\" \"imagemap\" \"string filename\" \"data/tex-card.png\" "
+      "\"string filter\" \"ewa\"\n"
+      "Material \"conductor\" \"texture roughness\" \"i\"\nShape \"sphere\"\n"
+      "Texture \"d\" \"float\" \"bilerp\" \"float v00\" 0.01\n"
+      "Material \"diffuse\" \"texture displacement\" \"d\"\nShape \"sphere\"\n"
+      "Material \"diffuse\" \"rgb reflectance\" [ 0.5 0.5 0.5 ]\nShape \"sphere\"\n",
+      source_path("scenes"));
+  ASSERT_EQ(t.materials.size(), 5u);
+  using gpu::FEATURE_TEXTURES;
+  const glm::uvec2 fbm = material_texture_features(t, t.materials[0]);
+  EXPECT_EQ(fbm, glm::uvec2(FEATURE_TEXTURES | gpu::FEATURE_TEX_NOISE,
+                            gpu::FEATURE2_TEX_PROCEDURAL));  // fbm and the scale combinator
+  EXPECT_EQ(material_texture_features(t, t.materials[1]),
+            glm::uvec2(FEATURE_TEXTURES, gpu::FEATURE2_TEX_PROCEDURAL));
+  EXPECT_EQ(material_texture_features(t, t.materials[2]),
+            glm::uvec2(FEATURE_TEXTURES | gpu::FEATURE_TEX_IMAGE, gpu::FEATURE2_TEX_EWA));
+  EXPECT_EQ(material_texture_features(t, t.materials[3]),
+            glm::uvec2(FEATURE_TEXTURES, gpu::FEATURE2_TEX_PROCEDURAL | gpu::FEATURE2_BUMP));
+  EXPECT_EQ(material_texture_features(t, t.materials[4]), glm::uvec2(0u));
+  glm::uvec2 all(0u);
+  for (const gpu::Material& m : t.materials) all |= material_texture_features(t, m);
+  EXPECT_EQ(all.x, t.features & (FEATURE_TEXTURES | gpu::FEATURE_TEX_NOISE | gpu::FEATURE_TEX_IMAGE));
+  EXPECT_EQ(all.y, t.features2 & ~gpu::FEATURE2_NOISE_SPLIT);
+}
+
 }  // namespace
 }  // namespace basalt::test

@@ -245,6 +245,42 @@ TEST(Wavefront, SameImageThroughSixtyFourInterfaces) {
   }
 }
 
+// Each shade group is specialised for its own materials' texture families (GpuRenderer::
+// wf_shade_features): in bump.pbrt the layered group (a coated diffuse bumped by an image map)
+// gets the image and bump code but no noise, the other group (diffuse and conductors bumped by
+// noise) the noise but no image; FEATURE_TEXTURES stays the scene's in both. Both render, bit
+// for bit, what the groups render specialised for all the scene's families.
+TEST(Wavefront, ShadeGroupsGetTheirOwnTextureFamilies) {
+  SceneTables t = tables_from_file(source_path("scenes/bump.pbrt"), 48, 32);
+  ASSERT_TRUE(t.features & gpu::FEATURE_TEX_NOISE);
+  ASSERT_TRUE(t.features & gpu::FEATURE_TEX_IMAGE);
+  auto& ctx = gpu_context();
+  const std::size_t before = ctx.validation_errors();
+  std::vector<glm::vec4> image[2];
+  for (int own = 0; own < 2; ++own) {
+    vkx::GpuRenderer::group_texture_features = own == 1;
+    vkx::GpuRenderer gpu(ctx, t);
+    ASSERT_EQ(gpu.variant, "wavefront");
+    const auto [coated, coated2] = gpu.shade_feature_words(gpu::MATERIAL_COATED_DIFFUSE);
+    const auto [diffuse, diffuse2] = gpu.shade_feature_words(gpu::MATERIAL_DIFFUSE);
+    EXPECT_TRUE(coated & gpu::FEATURE_TEXTURES);
+    EXPECT_TRUE(diffuse & gpu::FEATURE_TEXTURES);
+    EXPECT_TRUE(coated & gpu::FEATURE_TEX_IMAGE);
+    EXPECT_TRUE(coated2 & gpu::FEATURE2_BUMP);
+    EXPECT_TRUE(diffuse & gpu::FEATURE_TEX_NOISE);
+    EXPECT_TRUE(diffuse2 & gpu::FEATURE2_BUMP);
+    EXPECT_EQ((coated & gpu::FEATURE_TEX_NOISE) != 0u, own == 0);
+    EXPECT_EQ((diffuse & gpu::FEATURE_TEX_IMAGE) != 0u, own == 0);
+    gpu.render(0, 2);
+    image[own] = gpu.accum();
+  }
+  vkx::GpuRenderer::group_texture_features = true;
+  EXPECT_EQ(ctx.validation_errors(), before);
+  ASSERT_EQ(image[0].size(), image[1].size());
+  EXPECT_EQ(std::memcmp(image[0].data(), image[1].data(), image[0].size() * sizeof(glm::vec4)),
+            0);
+}
+
 // A scene with any material kind other than diffuse never gets the lean shader: not by
 // default (it gets the wavefront stages), and asking for it is an error.
 TEST(LeanVariant, NeverForOtherMaterials) {
