@@ -1043,7 +1043,8 @@ glm::uvec2 material_texture_features(const SceneTables& t, const gpu::Material& 
   }
   for (std::uint32_t slot = 0; slot < gpu::MATERIAL_SLOTS; ++slot) {
     const std::uint32_t root = m.texture[slot / 4][slot % 4];
-    if (root == INVALID_INDEX) continue;
+    // (a root past the table reads as no texture, as tex_eval_rgb does)
+    if (root == INVALID_INDEX || root >= t.textures.size()) continue;
     for (std::uint32_t i = t.textures[root].first; i <= root; ++i) {
       f.x |= gpu::FEATURE_TEXTURES;
       const std::uint32_t mapping = t.textures[i].flags & gpu::TEXFLAG_MAPPING_MASK;
