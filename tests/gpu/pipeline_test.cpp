@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <random>
 #include <stdexcept>
 
@@ -245,6 +246,30 @@ TEST(Wavefront, SameImageThroughSixtyFourInterfaces) {
   }
 }
 
+// Renders 2 samples per pixel of \p t with the switch \p toggle (a static of GpuRenderer) off,
+// then on (it is left on, its default), runs \p check on each renderer, and expects the same
+// image bit for bit and no validation error.
+void expect_same_image_both_ways(const SceneTables& t, bool& toggle,
+                                 const std::function<void(vkx::GpuRenderer&, bool)>& check,
+                                 const std::string& what) {
+  auto& ctx = gpu_context();
+  const std::size_t before = ctx.validation_errors();
+  std::vector<glm::vec4> image[2];
+  for (int on = 0; on < 2; ++on) {
+    toggle = on == 1;
+    vkx::GpuRenderer gpu(ctx, t);
+    check(gpu, on == 1);
+    gpu.render(0, 2);
+    image[on] = gpu.accum();
+  }
+  toggle = true;
+  EXPECT_EQ(ctx.validation_errors(), before) << what;
+  ASSERT_EQ(image[0].size(), image[1].size()) << what;
+  EXPECT_EQ(std::memcmp(image[0].data(), image[1].data(), image[0].size() * sizeof(glm::vec4)),
+            0)
+      << what;
+}
+
 // Each shade group is specialised for its own materials' texture families (GpuRenderer::
 // wf_shade_features): in bump.pbrt the layered group (a coated diffuse bumped by an image map)
 // gets the image and bump code but no noise, the other group (diffuse and conductors bumped by
@@ -254,12 +279,8 @@ TEST(Wavefront, ShadeGroupsGetTheirOwnTextureFamilies) {
   SceneTables t = tables_from_file(source_path("scenes/bump.pbrt"), 48, 32);
   ASSERT_TRUE(t.features & gpu::FEATURE_TEX_NOISE);
   ASSERT_TRUE(t.features & gpu::FEATURE_TEX_IMAGE);
-  auto& ctx = gpu_context();
-  const std::size_t before = ctx.validation_errors();
-  std::vector<glm::vec4> image[2];
-  for (int own = 0; own < 2; ++own) {
-    vkx::GpuRenderer::group_texture_features = own == 1;
-    vkx::GpuRenderer gpu(ctx, t);
+  expect_same_image_both_ways(t, vkx::GpuRenderer::group_texture_features,
+                              [](vkx::GpuRenderer& gpu, bool own) {
     ASSERT_EQ(gpu.variant, "wavefront");
     const auto [coated, coated2] = gpu.shade_feature_words(gpu::MATERIAL_COATED_DIFFUSE);
     const auto [diffuse, diffuse2] = gpu.shade_feature_words(gpu::MATERIAL_DIFFUSE);
@@ -269,16 +290,9 @@ TEST(Wavefront, ShadeGroupsGetTheirOwnTextureFamilies) {
     EXPECT_TRUE(coated2 & gpu::FEATURE2_BUMP);
     EXPECT_TRUE(diffuse & gpu::FEATURE_TEX_NOISE);
     EXPECT_TRUE(diffuse2 & gpu::FEATURE2_BUMP);
-    EXPECT_EQ((coated & gpu::FEATURE_TEX_NOISE) != 0u, own == 0);
-    EXPECT_EQ((diffuse & gpu::FEATURE_TEX_IMAGE) != 0u, own == 0);
-    gpu.render(0, 2);
-    image[own] = gpu.accum();
-  }
-  vkx::GpuRenderer::group_texture_features = true;
-  EXPECT_EQ(ctx.validation_errors(), before);
-  ASSERT_EQ(image[0].size(), image[1].size());
-  EXPECT_EQ(std::memcmp(image[0].data(), image[1].data(), image[0].size() * sizeof(glm::vec4)),
-            0);
+    EXPECT_EQ((coated & gpu::FEATURE_TEX_NOISE) != 0u, !own);
+    EXPECT_EQ((diffuse & gpu::FEATURE_TEX_IMAGE) != 0u, !own);
+  }, "bump.pbrt");
 }
 
 // A scene with any material kind other than diffuse never gets the lean shader: not by
@@ -321,22 +335,9 @@ TEST(PlainVariant, SameImageAsTheTexturedBuilds) {
                            "scenes/materials-coated.pbrt"}) {
     SceneTables t = tables_from_file(source_path(file), 48, 32);
     ASSERT_TRUE(vkx::GpuRenderer::plain_suffices(t.features, t.features2)) << file;
-    auto& ctx = gpu_context();
-    const std::size_t before = ctx.validation_errors();
-    std::vector<glm::vec4> image[2];
-    for (int plain = 0; plain < 2; ++plain) {
-      vkx::GpuRenderer::plain_builds = plain == 1;
-      vkx::GpuRenderer gpu(ctx, t);
-      EXPECT_EQ(gpu.plain, plain == 1) << file;
-      gpu.render(0, 2);
-      image[plain] = gpu.accum();
-    }
-    vkx::GpuRenderer::plain_builds = true;
-    EXPECT_EQ(ctx.validation_errors(), before);
-    ASSERT_EQ(image[0].size(), image[1].size());
-    EXPECT_EQ(std::memcmp(image[0].data(), image[1].data(), image[0].size() * sizeof(glm::vec4)),
-              0)
-        << file;
+    expect_same_image_both_ways(
+        t, vkx::GpuRenderer::plain_builds,
+        [file](vkx::GpuRenderer& gpu, bool plain) { EXPECT_EQ(gpu.plain, plain) << file; }, file);
   }
 }
 
