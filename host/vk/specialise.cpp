@@ -45,7 +45,27 @@ std::vector<std::uint32_t> specialise_spirv(const std::uint32_t* words, std::siz
   std::vector<std::uint32_t> out;
   if (!opt.Run(words, bytes / sizeof(std::uint32_t), &out, options))
     throw std::runtime_error("SPIR-V specialisation failed: " + errors);
-  return out;
+  if (!inline_large_modules || out.size() <= kInlineAboveWords) return out;
+  // A large module is inlined here rather than by lavapipe (docs/performance.md, "Inlined
+  // before lavapipe"): NIR inlines every call too, then lowers the callees' parameter and
+  // local variables at every copy, which made the warm pipeline of a coated or textured
+  // scene 0.33-0.5 s. Only loads and stores are forwarded after the inlining (single block,
+  // single store): SPIRV-Tools' full SSA rewrite made LLVM's compile up to 2.5x slower.
+  spvtools::Optimizer inl(SPV_ENV_VULKAN_1_1);
+  inl.SetMessageConsumer([&errors](spv_message_level_t level, const char*,
+                                   const spv_position_t&, const char* message) {
+    if (level <= SPV_MSG_ERROR) errors += std::string(message) + "\n";
+  });
+  inl.RegisterPass(spvtools::CreateMergeReturnPass())
+      .RegisterPass(spvtools::CreateInlineExhaustivePass())
+      .RegisterPass(spvtools::CreateEliminateDeadFunctionsPass())
+      .RegisterPass(spvtools::CreateLocalSingleBlockLoadStoreElimPass())
+      .RegisterPass(spvtools::CreateLocalSingleStoreElimPass())
+      .RegisterPass(spvtools::CreateAggressiveDCEPass());
+  std::vector<std::uint32_t> inlined;
+  if (!inl.Run(out.data(), out.size(), &inlined, options))
+    throw std::runtime_error("SPIR-V inlining failed: " + errors);
+  return inlined;
 }
 
 namespace {
@@ -68,7 +88,9 @@ std::filesystem::path cache_dir() {
   return {};
 }
 
-constexpr std::uint32_t kCacheMagic = 0x56505342u;  // "BSPV"
+// The magic names the passes too: a file written by other passes is specialised afresh
+// ("BSPV" before large modules were inlined).
+constexpr std::uint32_t kCacheMagic = 0x32505342u;  // "BSP2"
 /// The cache is trimmed to kCacheKeep bytes, least recently used first, when it passes
 /// kCacheLimit (each shader change leaves a set of stale entries behind).
 constexpr std::uintmax_t kCacheLimit = 64u << 20, kCacheKeep = 48u << 20;
@@ -101,7 +123,7 @@ std::vector<std::uint32_t> specialise_spirv_cached(const std::uint32_t* words, s
                                                    bool& hit) {
   hit = false;
   const std::filesystem::path dir = cache_dir();
-  if (dir.empty()) return specialise_spirv(words, bytes, constants);
+  if (dir.empty() || !inline_large_modules) return specialise_spirv(words, bytes, constants);
   const std::uint64_t key =
       fnv1a(constants.data(), constants.size() * sizeof(std::uint32_t), fnv1a(words, bytes));
   char name[40];

@@ -15,9 +15,23 @@ namespace basalt::vkx {
 /// then conditional constant propagation for the short-circuited tests and the same again).
 /// The result computes what the driver would with those constants, in less code: lavapipe
 /// inlines every call before it folds a constant, so dead code costs it time and memory.
+/// A result over kInlineAboveWords is then inlined into its entry point, with the loads of
+/// stored values forwarded (merge return, exhaustive inlining, dead functions, local
+/// single-block and single-store elimination, aggressive DCE), which lavapipe translates in
+/// about 60% of the time; a smaller one keeps its functions (inlining costs more there than
+/// it saves).
 /// \throws std::runtime_error if SPIRV-Tools rejects the module.
 std::vector<std::uint32_t> specialise_spirv(const std::uint32_t* words, std::size_t bytes,
                                             const std::vector<std::uint32_t>& constants);
+
+/// Size in words above which specialise_spirv inlines its result (192 KiB: the Cornell box's
+/// megakernel, 143 KiB, stays below, the shade modules of coated and textured scenes, 210-350
+/// KiB, above).
+inline constexpr std::size_t kInlineAboveWords = 192u * 1024u / 4u;
+
+/// Whether specialise_spirv inlines large results (tests turn it off to compare the images;
+/// specialise_spirv_cached then bypasses the cache).
+inline bool inline_large_modules = true;
 
 /// \brief specialise_spirv through a per-user disk cache: $BASALT_CACHE_DIR, else
 /// $XDG_CACHE_HOME/basalt, else ~/.cache/basalt (as Mesa keeps its shader cache); the file name

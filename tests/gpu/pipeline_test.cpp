@@ -584,6 +584,44 @@ TEST(Specialisation, FoldsShortCircuitFeatureTests) {
   EXPECT_TRUE(names(specialise(cornell | gpu::FEATURE_MAT_OREN_NAYAR), "oren_nayar_f"));
 }
 
+// A specialised module over kInlineAboveWords is inlined into its entry point (no function
+// but main, no call left); a smaller one keeps its functions. The lean render module for the
+// Cornell box's features is below the bound, the same module with every feature above it.
+TEST(Specialisation, InlinesLargeModulesOnly) {
+  // Functions and call instructions of a module (SPIR-V: 5 header words, then instructions
+  // whose first word holds the word count above the opcode; OpFunction 54, OpFunctionCall 57).
+  auto count = [](const std::vector<std::uint32_t>& w) {
+    std::pair<int, int> n{0, 0};
+    for (std::size_t i = 5; i < w.size() && (w[i] >> 16) != 0; i += w[i] >> 16) {
+      n.first += (w[i] & 0xffffu) == 54u;
+      n.second += (w[i] & 0xffffu) == 57u;
+    }
+    return n;
+  };
+  const auto specialise = [](std::uint32_t f) {
+    return vkx::specialise_spirv(render_lean_spv, sizeof(render_lean_spv), {f, 0u, 1u, 1u});
+  };
+  const std::vector<std::uint32_t> small =
+      specialise(gpu::FEATURE_TRIANGLES | gpu::FEATURE_LIGHT_AREA | gpu::FEATURE_MAT_DIFFUSE);
+  EXPECT_LE(small.size(), vkx::kInlineAboveWords);
+  EXPECT_GT(count(small).first, 10);
+  EXPECT_GT(count(small).second, 10);
+  const std::vector<std::uint32_t> large = specialise(0xffffffffu);
+  vkx::inline_large_modules = false;
+  EXPECT_GT(specialise(0xffffffffu).size(), vkx::kInlineAboveWords);
+  vkx::inline_large_modules = true;
+  EXPECT_EQ(count(large), std::make_pair(1, 0));
+}
+
+// Inlining changes no result: materials-coated, whose shade modules are above the bound,
+// renders the same image, bit for bit, with and without it.
+TEST(Specialisation, InliningKeepsTheImage) {
+  SceneTables t = tables_from_file(source_path("scenes/materials-coated.pbrt"), 48, 32);
+  expect_same_image_both_ways(t, vkx::inline_large_modules, [](vkx::GpuRenderer& gpu, bool) {
+    ASSERT_EQ(gpu.variant, "wavefront");
+  }, "materials-coated.pbrt");
+}
+
 // The cache stays bounded: past 64 MiB the least recently used entries go, down to 48 MiB, and
 // the entry just written stays (sparse 4 MiB stand-ins of older entries, oldest first).
 TEST(Specialisation, SpirvCacheIsTrimmed) {
