@@ -1,15 +1,16 @@
 #version 460
 // The wavefront stages of the path tracer (docs/performance.md, issue 12; in the manner of
 // pbrt-v4's GPU path): the megakernel's path loop (include/integrator.glsl) cut at the
-// intersection, over one wave of paths (one sample of up to `capacity` pixel slots) kept in a
-// storage buffer (layout.h, WF_*). Built twice (CMakeLists.txt), one stage a module, so that
-// neither holds the other's code: BASALT_WF_STAGE 0 (extend): start the paths (iteration 0) or
-// take the active list, trace each path's ray, add the escaped radiance of a miss, and queue a
-// hit by its material's type. BASALT_WF_STAGE 1 (shade): path_bounce over the queue of one
-// material type
-// (pc.pad0), the pipeline specialised for that type alone, so that each dispatch runs one
-// material's code over its paths and compiles as a smaller shader. A path that ends adds its
-// radiance to its pixel (one path a pixel in a wave: no race).
+// intersection, over one wave of paths (several samples of every pixel slot, or one sample of
+// up to `capacity` slots) kept in a storage buffer (layout.h, WF_*). Built twice
+// (CMakeLists.txt), one stage a module, so that neither holds the other's code:
+// BASALT_WF_STAGE 0 (extend): start the paths (iteration 0) or take the active list, trace
+// each path's ray, add the escaped radiance of a miss, and queue a hit by its material's type.
+// BASALT_WF_STAGE 1 (shade): path_bounce over the queue of one material type (pc.pad0), the
+// pipeline specialised for that type alone, so that each dispatch runs one material's code
+// over its paths and compiles as a smaller shader. A path that ends leaves its radiance in
+// its own words, which the host adds to the pixels in sample order after the wave (several
+// paths of a pixel in a wave: no race, and the sums of one sample a wave).
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
@@ -88,15 +89,20 @@ PathState wf_load(uint id, out Hit hit) {
   return ps;
 }
 
-// The path has ended: its radiance goes to its pixel (a NaN or infinity is dropped and
-// counted, as in render.comp) and its rays to the ray count.
-void wf_finish(PathState ps) {
+// Path id has ended: its radiance and pixel go to its radiance words, which the host adds to
+// the pixel after the wave (a NaN or infinity is dropped and counted, as in render.comp), and
+// its rays to the ray count.
+void wf_finish(uint id, PathState ps) {
   vec3 L = ps.L;
   if (any(isnan(L)) || any(isinf(L))) {
     L = vec3(0.0);
     atomicAdd(counters[1], 1u);
   }
-  accum[ps.py * globals.image.x + ps.px] += vec4(L, 1.0);
+  uint at = WF_COUNTERS + WF_LISTS * pc.pad1 + id * WF_RADIANCE_WORDS;
+  wf_lists[at] = floatBitsToUint(L.x);
+  wf_lists[at + 1u] = floatBitsToUint(L.y);
+  wf_lists[at + 2u] = floatBitsToUint(L.z);
+  wf_lists[at + 3u] = ps.py * globals.image.x + ps.px;
   atomicAdd(counters[0], ps.rays);
 }
 
@@ -109,10 +115,14 @@ void extend() {
   PathState ps;
   Hit hit;
   if (pc.sample_count == 0u) {
+    // Invocation gid: slot gid % pixel_total of sample gid / pixel_total of the wave (a wave
+    // of one sample over part of the slots has gid < pixel_total).
     id = gid;
     uint px, py;
-    if (!slot_pixel(pc.pixel_offset + gid, pc.pixel_stride, pc.pixel_total, px, py)) return;
-    ps = path_start(px, py, pc.sample_start);
+    if (!slot_pixel(pc.pixel_offset + gid % pc.pixel_total, pc.pixel_stride, pc.pixel_total, px,
+                    py))
+      return;
+    ps = path_start(px, py, pc.sample_start + gid / pc.pixel_total);
   } else {
     id = wf_lists[wf_entry(pc.pad0, gid)];
     ps = wf_load(id, hit);
@@ -121,7 +131,7 @@ void extend() {
   ++ps.rays;
   if (hit.prim == INVALID_INDEX) {
     path_escape(ps);
-    wf_finish(ps);
+    wf_finish(id, ps);
     return;
   }
   uint m = hit_material(hit);
@@ -143,7 +153,7 @@ void shade() {
     wf_store(id, ps, hit);
     wf_push(pc.pad0 >> 16u, id);
   } else {
-    wf_finish(ps);
+    wf_finish(id, ps);
   }
 }
 

@@ -306,8 +306,12 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     // for each material type of the scene (and MATERIAL_NONE, for shapes without one).
     // The paths' texel view holds WF_PATH_VEC4S texels a path: capacity within the device's
     // maxTexelBufferElements (Vulkan promises 65,536: 5,461 paths).
+    // A small image's waves hold several samples (up to kWaveSamples) of every slot, so that
+    // a dispatch has the work to keep lavapipe's threads busy and a sample costs fewer
+    // submissions.
     wf_capacity_ = std::min<std::uint64_t>(
-        {wavefront_capacity, slots_, ctx.info().max_texel_buffer_elements / gpu::WF_PATH_VEC4S});
+        {wavefront_capacity, std::uint64_t(slots_) * kWaveSamples,
+         ctx.info().max_texel_buffer_elements / gpu::WF_PATH_VEC4S});
     const auto usage = vk::BufferUsageFlagBits::eStorageBuffer;
     wf_paths_ = ctx_.create_buffer(std::size_t(wf_capacity_) * gpu::WF_PATH_VEC4S * 16,
                                    usage | vk::BufferUsageFlagBits::eUniformTexelBuffer);
@@ -316,7 +320,9 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
                                                  .offset = 0,
                                                  .range = wf_paths_.size});
     wf_lists_ = ctx_.create_buffer(
-        (gpu::WF_COUNTERS + std::size_t(gpu::WF_LISTS) * wf_capacity_) * 4, usage);
+        (gpu::WF_COUNTERS + std::size_t(gpu::WF_LISTS + gpu::WF_RADIANCE_WORDS) * wf_capacity_) *
+            4,
+        usage);
     device_bytes += wf_paths_.size + wf_lists_.size;
     wf_bindings_ = bindings;
     wf_bindings_.push_back({BINDING_PROBE_IN, &wf_paths_});
@@ -618,9 +624,14 @@ GpuRenderer::Pipeline& GpuRenderer::wf_shade(std::uint32_t type) {
   return p;
 }
 
-void GpuRenderer::wf_wave(std::uint32_t s, std::uint32_t slot0, std::uint32_t n) {
+void GpuRenderer::wf_wave(std::uint32_t s, std::uint32_t samples, std::uint32_t slot0,
+                          std::uint32_t n) {
   auto* lists = static_cast<std::uint32_t*>(wf_lists_.mapped);
   std::memset(lists, 0, gpu::WF_COUNTERS * sizeof(std::uint32_t));
+  // Every path's radiance words: no pixel until the path ends.
+  std::uint32_t* radiance = lists + gpu::WF_COUNTERS + std::size_t(gpu::WF_LISTS) * wf_capacity_;
+  const std::uint32_t paths = samples * n;
+  std::memset(radiance, 0xff, std::size_t(paths) * gpu::WF_RADIANCE_WORDS * 4);
   // Each submission starts with a barrier: the previous one's writes (paths, lists, accum)
   // are visible to this one's reads.
   auto barrier = [](vk::CommandBuffer cmd) {
@@ -638,7 +649,7 @@ void GpuRenderer::wf_wave(std::uint32_t s, std::uint32_t slot0, std::uint32_t n)
     cmd.dispatch((invocations + 63) / 64, 1, 1);
   };
   // Iteration 0 starts the paths; a path crosses at most 64 interfaces besides its bounces.
-  std::uint32_t active = n;
+  std::uint32_t active = paths;
   for (std::uint32_t it = 0; active > 0 && it < 2 + globals_max_depth_ + 64; ++it) {
     const std::uint32_t in_list = (it + 1) & 1u, out_list = it & 1u;
     ctx_.submit_and_wait([&](vk::CommandBuffer cmd) {
@@ -667,6 +678,17 @@ void GpuRenderer::wf_wave(std::uint32_t s, std::uint32_t slot0, std::uint32_t n)
   }
   if (active)
     throw std::logic_error("GpuRenderer: a wavefront path outlived its depth and crossings");
+  // The paths' radiance into their pixels, in path order: the samples of a pixel in order, as
+  // a wave a sample would add them (the same sums, bit for bit).
+  auto* accum = static_cast<glm::vec4*>(tables_[BINDING_ACCUM].mapped);
+  const std::size_t pixels = std::size_t(width_) * height_;
+  for (std::uint32_t i = 0; i < paths; ++i) {
+    const std::uint32_t* r = radiance + std::size_t(i) * gpu::WF_RADIANCE_WORDS;
+    if (r[3] >= pixels) continue;  // a slot beyond the image
+    float L[3];
+    std::memcpy(L, r, sizeof(L));
+    accum[r[3]] += glm::vec4(L[0], L[1], L[2], 1.0f);
+  }
   auto* counters = static_cast<std::uint32_t*>(tables_[BINDING_COUNTERS].mapped);
   rays_ += counters[0];
   nonfinite_ += counters[1];
@@ -682,16 +704,28 @@ void GpuRenderer::render(std::uint32_t sample_start, std::uint32_t count,
       check_sample_count(g, sample_start + count);
       globals_max_depth_ = g.image.z;
     }
-    // One wave per sample and run of up to wf_capacity_ slots.
+    // Waves of as many samples of every slot as the capacity holds, else one wave per sample
+    // and run of up to wf_capacity_ slots.
     const double work = double(slots_) * count;
     double done = 0.0;
-    for (std::uint32_t s = sample_start; s < sample_start + count; ++s)
+    const std::uint32_t end = sample_start + count;
+    for (std::uint32_t s = sample_start; s < end;) {
+      if (slots_ <= wf_capacity_) {
+        const std::uint32_t samples = std::min(wf_capacity_ / slots_, end - s);
+        wf_wave(s, samples, 0, slots_);
+        s += samples;
+        done += double(slots_) * samples;
+        if (progress) progress(done / work);
+        continue;
+      }
       for (std::uint32_t slot0 = 0; slot0 < slots_; slot0 += wf_capacity_) {
         const std::uint32_t n = std::min(wf_capacity_, slots_ - slot0);
-        wf_wave(s, slot0, n);
+        wf_wave(s, 1, slot0, n);
         done += n;
         if (progress) progress(done / work);
       }
+      ++s;
+    }
     return;
   }
   if (!render_.pipeline)

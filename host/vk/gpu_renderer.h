@@ -109,8 +109,11 @@ class GpuRenderer {
   std::pair<std::uint32_t, std::uint32_t> shade_feature_words(std::uint32_t type) const {
     return {wf_shade_features(wf_group_of(type)), wf_shade_features2(wf_group_of(type))};
   }
-  /// Paths of a wavefront wave (at most; a wave is one sample of up to this many pixel slots).
-  static inline std::uint32_t wavefront_capacity = 65536;
+  /// Paths of a wavefront wave (at most): several samples of every pixel slot when they fit,
+  /// else one sample of up to this many slots.
+  static inline std::uint32_t wavefront_capacity = 262144;
+  /// Samples of a wave at most (a small image's capacity is its slots times this).
+  static constexpr std::uint32_t kWaveSamples = 64;
 
  private:
   struct Pipeline {
@@ -182,8 +185,9 @@ class GpuRenderer {
   std::uint32_t wf_shade_features2(std::uint32_t group) const;
   std::vector<glm::uvec2> wf_tex_bits_;  // per group: material_texture_features of its materials
   std::mutex stats_mutex_;  // seconds_specialise, added to by make_pipeline on several threads
-  /// \brief Runs sample \p s of the \p n slots from \p slot0 through the wavefront stages.
-  void wf_wave(std::uint32_t s, std::uint32_t slot0, std::uint32_t n);
+  /// \brief Runs samples \p s .. \p s + \p samples - 1 of the \p n slots from \p slot0
+  /// through the wavefront stages (several samples only of all the slots, \p slot0 = 0).
+  void wf_wave(std::uint32_t s, std::uint32_t samples, std::uint32_t slot0, std::uint32_t n);
   std::uint64_t rays_ = 0, nonfinite_ = 0;
   double units_per_second_ = 0.0;  // measured pixel-samples per second
 };

@@ -548,14 +548,21 @@ struct PassConstants {
 // WF_LISTS lists of path indices of `capacity` entries each (PassConstants.pad1): the active
 // lists 0 and 1 (the paths still going, written by the shade stages of one iteration, read by
 // the extend stage of the next) and a queue per material type (written by the extend stage,
-// read by that type's shade pipeline). Counter k counts the entries of list k.
-// PassConstants of a stage: sample_start the wave's sample, sample_count the iteration,
-// pixel_offset its first slot, pixel_count the invocations, pad0 the list or queue it reads
-// (a shade stage: queue | parity << 16, the active list it appends to), pad1 the capacity.
+// read by that type's shade pipeline). Counter k counts the entries of list k. After the
+// lists, WF_RADIANCE_WORDS words a path: the radiance of the path when it ended (three float
+// bit patterns) and its pixel's index (INVALID_INDEX for a slot that started no path), which
+// the host adds to the pixel after the wave, in the order of the paths (so in sample order).
+// A wave holds `samples` samples of every slot when the slots fit the capacity (path id =
+// sample offset x pixel_total + slot), else one sample of a run of slots.
+// PassConstants of a stage: sample_start the wave's first sample, sample_count the
+// iteration, pixel_offset its first slot, pixel_count the invocations, pad0 the list or queue
+// it reads (a shade stage: queue | parity << 16, the active list it appends to), pad1 the
+// capacity.
 BASALT_CONST uint WF_PATH_VEC4S = 12u;
 BASALT_CONST uint WF_COUNTERS = 32u;
 BASALT_CONST uint WF_LIST_QUEUE = 2u;  // list WF_LIST_QUEUE + t: the queue of MATERIAL_* t
 BASALT_CONST uint WF_LISTS = WF_LIST_QUEUE + MATERIAL_TYPE_COUNT;
+BASALT_CONST uint WF_RADIANCE_WORDS = 4u;
 
 // ---- test probes (shaders/tests/probe.comp and its CPU twin host/cpu/probe.cpp) ---------
 BASALT_CONST uint PROBE_CLOSEST = 0u;   // in: ray o, d, tMax  -> out: t, b1, b2 / prim

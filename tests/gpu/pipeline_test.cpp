@@ -189,7 +189,7 @@ TEST(Wavefront, SameImageAsTheMegakernel) {
     vkx::GpuRenderer::wavefront_capacity = 1000;
     vkx::GpuRenderer gpu(ctx, t, t.features,
                          k == 0 ? vkx::ShaderVariant::full : vkx::ShaderVariant::wavefront);
-    vkx::GpuRenderer::wavefront_capacity = 65536;
+    vkx::GpuRenderer::wavefront_capacity = 262144;
     EXPECT_EQ(gpu.variant, k == 0 ? "full" : "wavefront");
     for (std::uint32_t s = 0; s < 2; ++s) gpu.render(s, 1);
     images[k] = gpu.accum();
@@ -208,6 +208,35 @@ TEST(Wavefront, SameImageAsTheMegakernel) {
   ASSERT_GT(mean(cpu), 0.0);
   // A mix's choice may flip with the last bit (conformance_test.cpp): at most 3 pixels.
   EXPECT_GE(agreeing_fraction(cpu, gpu, 1e-3f), 1.0 - 3.0 / (48 * 32));
+}
+
+// A small image's wave holds several samples of every slot (GpuRenderer::kWaveSamples), and
+// the host adds the paths' radiance to the pixels in sample order after the wave: the image
+// and the ray count are those of waves of one sample, bit for bit. materials-coated at 48 x 32
+// (1,536 slots): 8 samples in one wave of 12,288 paths, against waves of 1,536.
+TEST(Wavefront, WavesOfSeveralSamplesGiveTheSameImage) {
+  const SceneTables t = tables_from_file(source_path("scenes/materials-coated.pbrt"), 48, 32);
+  auto& ctx = gpu_context();
+  const std::size_t before = ctx.validation_errors();
+  std::vector<glm::vec4> images[2];
+  std::uint64_t rays[2];
+  for (int k = 0; k < 2; ++k) {
+    vkx::GpuRenderer::wavefront_capacity = k == 0 ? 48 * 32 : 262144;
+    vkx::GpuRenderer gpu(ctx, t);
+    vkx::GpuRenderer::wavefront_capacity = 262144;
+    ASSERT_EQ(gpu.variant, "wavefront");
+    gpu.render(0, 8);
+    images[k] = gpu.accum();
+    rays[k] = gpu.rays();
+  }
+  EXPECT_EQ(ctx.validation_errors(), before);
+  ASSERT_EQ(images[0].size(), images[1].size());
+  EXPECT_EQ(std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(glm::vec4)),
+            0);
+  EXPECT_EQ(rays[0], rays[1]);
+  double weight = 0.0;  // every pixel got its 8 samples
+  for (const glm::vec4& v : images[1]) weight += v.w;
+  EXPECT_EQ(weight, 8.0 * 48 * 32);
 }
 
 // A path passes through at most 64 interfaces (pbrt-v4's SkipIntersection; the crossings
