@@ -212,6 +212,7 @@ int run(const Options& opt) {
     st.seconds_pipeline = gpu.seconds_pipeline;
     st.seconds_specialise = gpu.seconds_specialise;
     st.table_bytes = gpu.device_bytes;
+    st.wave_bytes = gpu.wave_bytes;
     st.shader_variant = gpu.variant;
     st.shader_plain = gpu.plain;
     t0 = Clock::now();

@@ -1,8 +1,8 @@
 #version 460
 // The wavefront stages of the path tracer (docs/performance.md, issue 12; in the manner of
 // pbrt-v4's GPU path): the megakernel's path loop (include/integrator.glsl) cut at the
-// intersection, over one wave of paths (several samples of every pixel slot, or one sample of
-// up to `capacity` slots) kept in a storage buffer (layout.h, WF_*). Built twice
+// intersection, over one wave of paths (up to `capacity` (sample, pixel slot) pairs in order:
+// a small image's wave holds several samples) kept in a storage buffer (layout.h, WF_*). Built twice
 // (CMakeLists.txt), one stage a module, so that neither holds the other's code:
 // BASALT_WF_STAGE 0 (extend): start the paths (iteration 0) or take the active list, trace
 // each path's ray, add the escaped radiance of a miss, and queue a hit by its material's type.
@@ -115,14 +115,13 @@ void extend() {
   PathState ps;
   Hit hit;
   if (pc.sample_count == 0u) {
-    // Invocation gid: slot gid % pixel_total of sample gid / pixel_total of the wave (a wave
-    // of one sample over part of the slots has gid < pixel_total).
+    // The wave runs the (sample, slot) pairs in order from slot pixel_offset of sample
+    // sample_start: invocation gid takes the pair pixel_offset + gid places on.
     id = gid;
+    uint t = pc.pixel_offset + gid;
     uint px, py;
-    if (!slot_pixel(pc.pixel_offset + gid % pc.pixel_total, pc.pixel_stride, pc.pixel_total, px,
-                    py))
-      return;
-    ps = path_start(px, py, pc.sample_start + gid / pc.pixel_total);
+    if (!slot_pixel(t % pc.pixel_total, pc.pixel_stride, pc.pixel_total, px, py)) return;
+    ps = path_start(px, py, pc.sample_start + t / pc.pixel_total);
   } else {
     id = wf_lists[wf_entry(pc.pad0, gid)];
     ps = wf_load(id, hit);

@@ -44,7 +44,7 @@ foreach(device lavapipe cpu)
   file(READ ${WORK}/stats-${device}.json json)
   foreach(key device driver width height spp seconds_parse seconds_bvh seconds_upload
               seconds_pipeline seconds_render samples_per_second rays_per_second
-              peak_rss_bytes table_bytes features)
+              peak_rss_bytes table_bytes wave_bytes features)
     string(JSON value ERROR_VARIABLE jerr GET "${json}" ${key})
     if(jerr)
       fail("stats on ${device}: key ${key} missing: ${jerr}")

@@ -62,6 +62,7 @@ std::string to_json(const RenderStats& st) {
   o << "  \"nonfinite_samples\": " << st.nonfinite_samples << ",\n";
   o << "  \"peak_rss_bytes\": " << st.peak_rss_bytes << ",\n";
   o << "  \"table_bytes\": " << st.table_bytes << ",\n";
+  o << "  \"wave_bytes\": " << st.wave_bytes << ",\n";
   o << "  \"triangles\": " << st.triangles << ",\n";
   o << "  \"spheres\": " << st.spheres << ",\n";
   o << "  \"lights\": " << st.lights << ",\n";

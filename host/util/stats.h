@@ -20,8 +20,9 @@ struct RenderStats {
   double samples_per_second = 0, rays_per_second = 0;
   std::uint64_t rays = 0, nonfinite_samples = 0, peak_rss_bytes = 0, triangles = 0, spheres = 0, lights = 0;
   // Bytes of the scene tables rendered from: the device's buffers (accumulation included), or
-  // on cpu the host tables (tables.h table_bytes).
-  std::uint64_t table_bytes = 0;
+  // on cpu the host tables (tables.h table_bytes); and the wavefront's working buffers (paths,
+  // lists, radiance: GpuRenderer::wave_bytes), not counted as tables.
+  std::uint64_t table_bytes = 0, wave_bytes = 0;
   std::vector<std::string> features;
   std::vector<std::pair<std::string, std::string>> quality;  // quality knobs in force
 };

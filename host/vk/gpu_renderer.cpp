@@ -306,9 +306,9 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     // for each material type of the scene (and MATERIAL_NONE, for shapes without one).
     // The paths' texel view holds WF_PATH_VEC4S texels a path: capacity within the device's
     // maxTexelBufferElements (Vulkan promises 65,536: 5,461 paths).
-    // A small image's waves hold several samples (up to kWaveSamples) of every slot, so that
-    // a dispatch has the work to keep lavapipe's threads busy and a sample costs fewer
-    // submissions.
+    // A wave runs (sample, slot) pairs in order, so a small image's wave holds several
+    // samples (a tiny image's capacity is its slots times kWaveSamples): each dispatch has the
+    // work to keep lavapipe's threads busy, and a sample costs fewer submissions.
     wf_capacity_ = std::min<std::uint64_t>(
         {wavefront_capacity, std::uint64_t(slots_) * kWaveSamples,
          ctx.info().max_texel_buffer_elements / gpu::WF_PATH_VEC4S});
@@ -323,7 +323,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
         (gpu::WF_COUNTERS + std::size_t(gpu::WF_LISTS + gpu::WF_RADIANCE_WORDS) * wf_capacity_) *
             4,
         usage);
-    device_bytes += wf_paths_.size + wf_lists_.size;
+    wave_bytes = wf_paths_.size + wf_lists_.size;
     wf_bindings_ = bindings;
     wf_bindings_.push_back({BINDING_PROBE_IN, &wf_paths_});
     wf_bindings_.push_back({BINDING_PROBE_OUT, &wf_lists_});
@@ -624,13 +624,11 @@ GpuRenderer::Pipeline& GpuRenderer::wf_shade(std::uint32_t type) {
   return p;
 }
 
-void GpuRenderer::wf_wave(std::uint32_t s, std::uint32_t samples, std::uint32_t slot0,
-                          std::uint32_t n) {
+void GpuRenderer::wf_wave(std::uint32_t s, std::uint32_t slot0, std::uint32_t paths) {
   auto* lists = static_cast<std::uint32_t*>(wf_lists_.mapped);
   std::memset(lists, 0, gpu::WF_COUNTERS * sizeof(std::uint32_t));
   // Every path's radiance words: no pixel until the path ends.
   std::uint32_t* radiance = lists + gpu::WF_COUNTERS + std::size_t(gpu::WF_LISTS) * wf_capacity_;
-  const std::uint32_t paths = samples * n;
   std::memset(radiance, 0xff, std::size_t(paths) * gpu::WF_RADIANCE_WORDS * 4);
   // Each submission starts with a barrier: the previous one's writes (paths, lists, accum)
   // are visible to this one's reads.
@@ -704,27 +702,21 @@ void GpuRenderer::render(std::uint32_t sample_start, std::uint32_t count,
       check_sample_count(g, sample_start + count);
       globals_max_depth_ = g.image.z;
     }
-    // Waves of as many samples of every slot as the capacity holds, else one wave per sample
-    // and run of up to wf_capacity_ slots.
+    // Waves of wf_capacity_ (sample, slot) pairs in order (the last one fewer): a wave may
+    // end in the middle of a sample and the next go on from there.
     const double work = double(slots_) * count;
     double done = 0.0;
     const std::uint32_t end = sample_start + count;
-    for (std::uint32_t s = sample_start; s < end;) {
-      if (slots_ <= wf_capacity_) {
-        const std::uint32_t samples = std::min(wf_capacity_ / slots_, end - s);
-        wf_wave(s, samples, 0, slots_);
-        s += samples;
-        done += double(slots_) * samples;
-        if (progress) progress(done / work);
-        continue;
-      }
-      for (std::uint32_t slot0 = 0; slot0 < slots_; slot0 += wf_capacity_) {
-        const std::uint32_t n = std::min(wf_capacity_, slots_ - slot0);
-        wf_wave(s, 1, slot0, n);
-        done += n;
-        if (progress) progress(done / work);
-      }
-      ++s;
+    std::uint32_t s = sample_start, slot0 = 0;
+    while (s < end) {
+      const std::uint64_t left = std::uint64_t(end - s) * slots_ - slot0;
+      const std::uint32_t n = std::uint32_t(std::min<std::uint64_t>(wf_capacity_, left));
+      wf_wave(s, slot0, n);
+      const std::uint64_t next = std::uint64_t(slot0) + n;
+      s += std::uint32_t(next / slots_);
+      slot0 = std::uint32_t(next % slots_);
+      done += n;
+      if (progress) progress(done / work);
     }
     return;
   }

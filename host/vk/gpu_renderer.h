@@ -94,6 +94,7 @@ class GpuRenderer {
   double seconds_pipeline = 0.0;  // pipeline creation plus the driver's compile at first use
   double seconds_specialise = 0.0;  // SPIR-V specialisation of the pipelines built (specialise.h)
   std::uint64_t device_bytes = 0; // bytes of all scene tables on the device
+  std::uint64_t wave_bytes = 0;   // bytes of the wavefront's paths, lists and radiance
   std::string variant;            // render shader build in use: "lean", "full" or "wavefront"
   bool plain = false;             // the plain builds of it (plain_suffices), pruned at build time
   /// Whether a scene of these feature words can use the plain builds of the lean and wavefront
@@ -109,10 +110,9 @@ class GpuRenderer {
   std::pair<std::uint32_t, std::uint32_t> shade_feature_words(std::uint32_t type) const {
     return {wf_shade_features(wf_group_of(type)), wf_shade_features2(wf_group_of(type))};
   }
-  /// Paths of a wavefront wave (at most): several samples of every pixel slot when they fit,
-  /// else one sample of up to this many slots.
+  /// Paths of a wavefront wave (at most): this many (sample, pixel slot) pairs in order.
   static inline std::uint32_t wavefront_capacity = 262144;
-  /// Samples of a wave at most (a small image's capacity is its slots times this).
+  /// Samples of a wave at most (a tiny image's capacity is its slots times this).
   static constexpr std::uint32_t kWaveSamples = 64;
 
  private:
@@ -185,9 +185,9 @@ class GpuRenderer {
   std::uint32_t wf_shade_features2(std::uint32_t group) const;
   std::vector<glm::uvec2> wf_tex_bits_;  // per group: material_texture_features of its materials
   std::mutex stats_mutex_;  // seconds_specialise, added to by make_pipeline on several threads
-  /// \brief Runs samples \p s .. \p s + \p samples - 1 of the \p n slots from \p slot0
-  /// through the wavefront stages (several samples only of all the slots, \p slot0 = 0).
-  void wf_wave(std::uint32_t s, std::uint32_t samples, std::uint32_t slot0, std::uint32_t n);
+  /// \brief Runs \p paths (sample, slot) pairs in order from slot \p slot0 of sample \p s
+  /// through the wavefront stages.
+  void wf_wave(std::uint32_t s, std::uint32_t slot0, std::uint32_t paths);
   std::uint64_t rays_ = 0, nonfinite_ = 0;
   double units_per_second_ = 0.0;  // measured pixel-samples per second
 };

@@ -552,8 +552,9 @@ struct PassConstants {
 // lists, WF_RADIANCE_WORDS words a path: the radiance of the path when it ended (three float
 // bit patterns) and its pixel's index (INVALID_INDEX for a slot that started no path), which
 // the host adds to the pixel after the wave, in the order of the paths (so in sample order).
-// A wave holds `samples` samples of every slot when the slots fit the capacity (path id =
-// sample offset x pixel_total + slot), else one sample of a run of slots.
+// A wave runs up to `capacity` (sample, slot) pairs in order, from slot pixel_offset of
+// sample sample_start: path id takes pair pixel_offset + id (slot that % pixel_total of
+// sample sample_start + that / pixel_total), so a small image's wave holds several samples.
 // PassConstants of a stage: sample_start the wave's first sample, sample_count the
 // iteration, pixel_offset its first slot, pixel_count the invocations, pad0 the list or queue
 // it reads (a shade stage: queue | parity << 16, the active list it appends to), pad1 the

@@ -210,18 +210,20 @@ TEST(Wavefront, SameImageAsTheMegakernel) {
   EXPECT_GE(agreeing_fraction(cpu, gpu, 1e-3f), 1.0 - 3.0 / (48 * 32));
 }
 
-// A small image's wave holds several samples of every slot (GpuRenderer::kWaveSamples), and
-// the host adds the paths' radiance to the pixels in sample order after the wave: the image
-// and the ray count are those of waves of one sample, bit for bit. materials-coated at 48 x 32
-// (1,536 slots): 8 samples in one wave of 12,288 paths, against waves of 1,536.
+// A wave runs (sample, slot) pairs in order, so a small image's wave holds several samples
+// and a wave may end in the middle of a sample; the host adds the paths' radiance to the
+// pixels in path order after the wave: the image and the ray count are those of waves of one
+// sample, bit for bit. materials-coated at 48 x 32 (1,536 slots), 8 samples: waves of 1,536
+// pairs (one sample each), of 1,000 (crossing the samples' ends) and one wave of 12,288.
 TEST(Wavefront, WavesOfSeveralSamplesGiveTheSameImage) {
   const SceneTables t = tables_from_file(source_path("scenes/materials-coated.pbrt"), 48, 32);
   auto& ctx = gpu_context();
   const std::size_t before = ctx.validation_errors();
-  std::vector<glm::vec4> images[2];
-  std::uint64_t rays[2];
-  for (int k = 0; k < 2; ++k) {
-    vkx::GpuRenderer::wavefront_capacity = k == 0 ? 48 * 32 : 262144;
+  const std::uint32_t capacities[3] = {48 * 32, 1000, 262144};
+  std::vector<glm::vec4> images[3];
+  std::uint64_t rays[3];
+  for (int k = 0; k < 3; ++k) {
+    vkx::GpuRenderer::wavefront_capacity = capacities[k];
     vkx::GpuRenderer gpu(ctx, t);
     vkx::GpuRenderer::wavefront_capacity = 262144;
     ASSERT_EQ(gpu.variant, "wavefront");
@@ -230,12 +232,15 @@ TEST(Wavefront, WavesOfSeveralSamplesGiveTheSameImage) {
     rays[k] = gpu.rays();
   }
   EXPECT_EQ(ctx.validation_errors(), before);
-  ASSERT_EQ(images[0].size(), images[1].size());
-  EXPECT_EQ(std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(glm::vec4)),
-            0);
-  EXPECT_EQ(rays[0], rays[1]);
+  for (int k = 1; k < 3; ++k) {
+    ASSERT_EQ(images[0].size(), images[k].size());
+    EXPECT_EQ(
+        std::memcmp(images[0].data(), images[k].data(), images[0].size() * sizeof(glm::vec4)), 0)
+        << capacities[k];
+    EXPECT_EQ(rays[0], rays[k]) << capacities[k];
+  }
   double weight = 0.0;  // every pixel got its 8 samples
-  for (const glm::vec4& v : images[1]) weight += v.w;
+  for (const glm::vec4& v : images[2]) weight += v.w;
   EXPECT_EQ(weight, 8.0 * 48 * 32);
 }
 
