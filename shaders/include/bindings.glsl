@@ -170,6 +170,11 @@ uint material_texture(uint m, uint s) {
   if (TEXEL_TABLES == 0u) return materials[m].texture[s / 4u][s % 4u];
   return texelFetch(material_texels, int(21u * m + 17u + s / 4u))[s % 4u];
 }
+// Textures of slots 4q .. 4q + 3 of material m.
+uvec4 material_textures4(uint m, uint q) {
+  if (TEXEL_TABLES == 0u) return materials[m].texture[q];
+  return texelFetch(material_texels, int(21u * m + 17u + q));
+}
 // Light i.
 Light light_at(uint i) {
   if (TEXEL_TABLES == 0u) return lights[i];
