@@ -312,6 +312,9 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     wf_capacity_ = std::min<std::uint64_t>(
         {wavefront_capacity, std::uint64_t(slots_) * kWaveSamples,
          ctx.info().max_texel_buffer_elements / gpu::WF_PATH_VEC4S});
+    // The wave buffers' allocation is timed with the upload (the tables' buffers), not as
+    // pipeline creation: 0.015 s on lavapipe at 262,144 paths.
+    const auto t_alloc = Clock::now();
     const auto usage = vk::BufferUsageFlagBits::eStorageBuffer;
     wf_paths_ = ctx_.create_buffer(std::size_t(wf_capacity_) * gpu::WF_PATH_VEC4S * 16,
                                    usage | vk::BufferUsageFlagBits::eUniformTexelBuffer);
@@ -324,6 +327,9 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
             4,
         usage);
     wave_bytes = wf_paths_.size + wf_lists_.size;
+    const double alloc = since(t_alloc);
+    seconds_upload += alloc;
+    t0 += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(alloc));
     wf_bindings_ = bindings;
     wf_bindings_.push_back({BINDING_PROBE_IN, &wf_paths_});
     wf_bindings_.push_back({BINDING_PROBE_OUT, &wf_lists_});
