@@ -504,7 +504,11 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
   if (features != 0xffffffffu || features2 != 0xffffffffu) {
     const auto t0 = Clock::now();
     bool hit = false;
-    specialised = specialise_spirv_cached(spirv, bytes, words, hit);
+    // The wavefront's stages are inlined whatever their size (the extend stage, 71-78 KiB,
+    // translates faster so too, and it shares a worker with a shade pipeline); the
+    // megakernels above kInlineAboveWords only (the Cornell box's cold start pays nothing).
+    specialised = specialise_spirv_cached(spirv, bytes, words, hit,
+                                          wf_paths ? 0u : kInlineAboveWords);
     const std::lock_guard<std::mutex> lock(stats_mutex_);  // pipelines made on several threads
     seconds_specialise += since(t0);
     spirv = specialised.data();

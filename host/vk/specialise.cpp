@@ -16,7 +16,8 @@
 namespace basalt::vkx {
 
 std::vector<std::uint32_t> specialise_spirv(const std::uint32_t* words, std::size_t bytes,
-                                            const std::vector<std::uint32_t>& constants) {
+                                            const std::vector<std::uint32_t>& constants,
+                                            std::size_t inline_above) {
   std::string errors;
   spvtools::Optimizer opt(SPV_ENV_VULKAN_1_1);
   opt.SetMessageConsumer([&errors](spv_message_level_t level, const char*,
@@ -45,7 +46,7 @@ std::vector<std::uint32_t> specialise_spirv(const std::uint32_t* words, std::siz
   std::vector<std::uint32_t> out;
   if (!opt.Run(words, bytes / sizeof(std::uint32_t), &out, options))
     throw std::runtime_error("SPIR-V specialisation failed: " + errors);
-  if (!inline_large_modules || out.size() <= kInlineAboveWords) return out;
+  if (!inline_large_modules || out.size() <= inline_above) return out;
   // A large module is inlined here rather than by lavapipe (docs/performance.md, "Inlined
   // before lavapipe"): NIR inlines every call too, then lowers the callees' parameter and
   // local variables at every copy, which made the warm pipeline of a coated or textured
@@ -120,12 +121,16 @@ void trim_cache(const std::filesystem::path& dir) {
 
 std::vector<std::uint32_t> specialise_spirv_cached(const std::uint32_t* words, std::size_t bytes,
                                                    const std::vector<std::uint32_t>& constants,
-                                                   bool& hit) {
+                                                   bool& hit, std::size_t inline_above) {
   hit = false;
   const std::filesystem::path dir = cache_dir();
-  if (dir.empty() || !inline_large_modules) return specialise_spirv(words, bytes, constants);
+  if (dir.empty() || !inline_large_modules)
+    return specialise_spirv(words, bytes, constants, inline_above);
+  // The key: the module, the constants and the inlining bound.
+  const std::uint64_t bound = inline_above;
   const std::uint64_t key =
-      fnv1a(constants.data(), constants.size() * sizeof(std::uint32_t), fnv1a(words, bytes));
+      fnv1a(&bound, sizeof(bound),
+            fnv1a(constants.data(), constants.size() * sizeof(std::uint32_t), fnv1a(words, bytes)));
   char name[40];
   std::snprintf(name, sizeof(name), "spirv-%016llx.bin", static_cast<unsigned long long>(key));
   const std::filesystem::path file = dir / name;
@@ -145,7 +150,7 @@ std::vector<std::uint32_t> specialise_spirv_cached(const std::uint32_t* words, s
       }
     }
   }
-  std::vector<std::uint32_t> out = specialise_spirv(words, bytes, constants);
+  std::vector<std::uint32_t> out = specialise_spirv(words, bytes, constants, inline_above);
   // Written to a temporary name and renamed, so a reader never sees half a file; a cache
   // that cannot be written is no error (the module is specialised again next time).
   std::error_code ec;

@@ -15,19 +15,20 @@ namespace basalt::vkx {
 /// then conditional constant propagation for the short-circuited tests and the same again).
 /// The result computes what the driver would with those constants, in less code: lavapipe
 /// inlines every call before it folds a constant, so dead code costs it time and memory.
-/// A result over kInlineAboveWords is then inlined into its entry point, with the loads of
+/// A result over \p inline_above words is then inlined into its entry point, with the loads of
 /// stored values forwarded (merge return, exhaustive inlining, dead functions, local
 /// single-block and single-store elimination, aggressive DCE), which lavapipe translates in
 /// about 60% of the time; a smaller one keeps its functions (inlining costs more there than
 /// it saves).
 /// \throws std::runtime_error if SPIRV-Tools rejects the module.
-std::vector<std::uint32_t> specialise_spirv(const std::uint32_t* words, std::size_t bytes,
-                                            const std::vector<std::uint32_t>& constants);
-
-/// Size in words above which specialise_spirv inlines its result (192 KiB: the Cornell box's
-/// megakernel, 143 KiB, stays below, the shade modules of coated and textured scenes, 210-350
-/// KiB, above).
+/// Size in words above which specialise_spirv inlines its result by default (192 KiB: the
+/// Cornell box's megakernel, 143 KiB, stays below, the shade modules of coated and textured
+/// scenes, 210-350 KiB, above). The wavefront's stages pass 0: all of them are inlined.
 inline constexpr std::size_t kInlineAboveWords = 192u * 1024u / 4u;
+
+std::vector<std::uint32_t> specialise_spirv(const std::uint32_t* words, std::size_t bytes,
+                                            const std::vector<std::uint32_t>& constants,
+                                            std::size_t inline_above = kInlineAboveWords);
 
 /// Whether specialise_spirv inlines large results (tests turn it off to compare the images;
 /// specialise_spirv_cached then bypasses the cache).
@@ -41,6 +42,7 @@ inline bool inline_large_modules = true;
 /// removed down to 48 MiB. Sets \p hit to whether the cache answered.
 std::vector<std::uint32_t> specialise_spirv_cached(const std::uint32_t* words, std::size_t bytes,
                                                    const std::vector<std::uint32_t>& constants,
-                                                   bool& hit);
+                                                   bool& hit,
+                                                   std::size_t inline_above = kInlineAboveWords);
 
 }  // namespace basalt::vkx

@@ -618,8 +618,9 @@ TEST(Specialisation, FoldsShortCircuitFeatureTests) {
   EXPECT_TRUE(names(specialise(cornell | gpu::FEATURE_MAT_OREN_NAYAR), "oren_nayar_f"));
 }
 
-// A specialised module over kInlineAboveWords is inlined into its entry point (no function
-// but main, no call left); a smaller one keeps its functions. The lean render module for the
+// A specialised module over kInlineAboveWords (the default bound) is inlined into its entry
+// point (no function but main, no call left); a smaller one keeps its functions, unless the
+// bound is 0, as for the wavefront's stages. The lean render module for the
 // Cornell box's features is below the bound, the same module with every feature above it.
 TEST(Specialisation, InlinesLargeModulesOnly) {
   // Functions and call instructions of a module (SPIR-V: 5 header words, then instructions
@@ -645,6 +646,11 @@ TEST(Specialisation, InlinesLargeModulesOnly) {
   EXPECT_GT(specialise(0xffffffffu).size(), vkx::kInlineAboveWords);
   vkx::inline_large_modules = true;
   EXPECT_EQ(count(large), std::make_pair(1, 0));
+  // A bound of 0 (the wavefront's stages) inlines the small module too.
+  const std::vector<std::uint32_t> all = vkx::specialise_spirv(
+      render_lean_spv, sizeof(render_lean_spv),
+      {gpu::FEATURE_TRIANGLES | gpu::FEATURE_LIGHT_AREA | gpu::FEATURE_MAT_DIFFUSE, 0u, 1u, 1u}, 0);
+  EXPECT_EQ(count(all), std::make_pair(1, 0));
 }
 
 // Inlining changes no result: materials-coated, whose shade modules are above the bound,
