@@ -193,8 +193,8 @@ void sampler_tables(SceneTables& t, const Sampler& s) {
                                             gpu::FEATURE2_SAMPLER_ZSOBOL,
                                             gpu::FEATURE2_SAMPLER_SOBOL,
                                             gpu::FEATURE2_SAMPLER_PMJ02BN};
-  t.features2 = (t.features2 & ~gpu::FEATURE2_SAMPLERS) | kFeature2[g.sampler_opts.x];
-  g.features.y = t.features2;
+  t.features2 = (t.features2 & ~(gpu::FEATURE2_SAMPLERS | gpu::FEATURE2_SAMPLER_OWEN)) |
+                kFeature2[g.sampler_opts.x];
   const std::uint32_t w = t.width(), h = t.height();
   switch (type) {
     case gpu::SAMPLER_STRATIFIED:
@@ -250,6 +250,10 @@ void sampler_tables(SceneTables& t, const Sampler& s) {
     t.sampler_data.insert(t.sampler_data.end(), sets.begin(), sets.end());
     t.sampler_data.insert(t.sampler_data.end(), pix.begin(), pix.end());
   }
+  // Full Owen scrambling's loop is compiled in only where a sampler runs it (layout.h).
+  if (g.sampler_opts.x != gpu::SAMPLER_INDEPENDENT && g.sampler_opts.y == gpu::RAND_OWEN)
+    t.features2 |= gpu::FEATURE2_SAMPLER_OWEN;
+  g.features.y = t.features2;
 }
 
 }  // namespace basalt

@@ -93,7 +93,7 @@ uint scramble(uint v, uint h, uint rand) {
     v ^= v * 0x53a22864u;
     return bitfieldReverse(v);
   }
-  if (rand == RAND_OWEN) {
+  if (has_feature2(FEATURE2_SAMPLER_OWEN) && rand == RAND_OWEN) {
     if ((h & 1u) != 0u) v ^= 1u << 31u;
     for (uint b = 1u; b < 32u; ++b) {
       uint mask = 0xffffffffu << (32u - b);
@@ -165,24 +165,15 @@ uint morton2(uint x, uint y) {
   return v.x | (v.y << 1u);
 }
 
-// Takes the element at index k (0..3) out of the packed 2-bit list rem (perm4's helper).
-uint perm4_take(inout uint rem, uint k) {
-  uint sh = 2u * k;
-  uint e = (rem >> sh) & 3u;
-  rem = (rem & ((1u << sh) - 1u)) | ((rem >> (sh + 2u)) << sh);
-  return e;
-}
-
 // Element `digit` of the p-th (0..23) permutation of (0, 1, 2, 3) in lexicographic order
-// (pbrt-v4 ZSobolSampler's permutations table; sampler-spec 4 zsobol): p's factorial-base
-// digits pick from the remaining elements.
+// (pbrt-v4 ZSobolSampler's permutations table; sampler-spec 4 zsobol), from that table packed
+// two bits an element, a byte a permutation, four permutations a word, the word picked by
+// selects (lavapipe runs both sides of every branch: a third of the arithmetic of taking the
+// elements out one at a time, docs/performance.md).
 uint perm4(uint p, uint digit) {
-  uint rem = 0xe4u;  // (0, 1, 2, 3), 2 bits each
-  uint perm = perm4_take(rem, p / 6u);
-  perm |= perm4_take(rem, (p % 6u) / 2u) << 2u;
-  perm |= perm4_take(rem, p % 2u) << 4u;
-  perm |= rem << 6u;
-  return (perm >> (2u * digit)) & 3u;
+  uint w = p < 12u ? (p < 4u ? 0x78d8b4e4u : (p < 8u ? 0xb1e16c9cu : 0x2d8d39c9u))
+                   : (p < 16u ? 0x36c672d2u : (p < 20u ? 0x63931e4eu : 0x1b4b2787u));
+  return (w >> (8u * (p & 3u) + 2u * digit)) & 3u;
 }
 
 // Sampler dimension of path dimension d (sampler-spec 2): ld, the component c, and whether
@@ -354,16 +345,32 @@ float pmj02bn_get(uint px, uint py, uint s, uint ld, uint c, bool pair) {
   return to_unit(sampler_data_at(at + c) + offset);
 }
 
-// Sample value of path dimension d for pixel (px, py) and sample s under the scene's sampler
-// Globals.sampler_opts.x (sampler-spec 2 and 4); the independent sampler is rng itself. Each
-// sampler's code is compiled in only with its FEATURE2_SAMPLER_* bit.
-float sampler_get(uint px, uint py, uint s, uint d) {
-  uint type = globals.sampler_opts.x;
-  uint ld, c;
-  bool pair;
-  if (no_feature2(FEATURE2_SAMPLERS) || type == SAMPLER_INDEPENDENT ||
-      !sampler_dimension(d, ld, c, pair))
-    return rng(px, py, s, d);
+#ifdef BASALT_FEATURES2_KEEP
+#define BASALT_SAMPLER_BITS (FEATURES2 & (FEATURE2_SAMPLERS & BASALT_FEATURES2_KEEP))
+#else
+#define BASALT_SAMPLER_BITS (FEATURES2 & FEATURE2_SAMPLERS)
+#endif
+// The SAMPLER_* whose code is the only sampler code in the pipeline (FEATURE2_SAMPLER_*; the
+// host sets the bit of the scene's sampler alone), or ~0u where several are (the probe,
+// --pipeline all): a specialization-constant operation, so that with one sampler the tests
+// of the others fold away (lavapipe runs both sides of every branch, docs/performance.md).
+const uint SAMPLER_FIXED =
+    BASALT_SAMPLER_BITS == 0u                             ? SAMPLER_INDEPENDENT
+    : BASALT_SAMPLER_BITS == FEATURE2_SAMPLER_STRATIFIED  ? SAMPLER_STRATIFIED
+    : BASALT_SAMPLER_BITS == FEATURE2_SAMPLER_HALTON      ? SAMPLER_HALTON
+    : BASALT_SAMPLER_BITS == FEATURE2_SAMPLER_PADDED_SOBOL ? SAMPLER_PADDED_SOBOL
+    : BASALT_SAMPLER_BITS == FEATURE2_SAMPLER_ZSOBOL      ? SAMPLER_ZSOBOL
+    : BASALT_SAMPLER_BITS == FEATURE2_SAMPLER_SOBOL       ? SAMPLER_SOBOL
+    : BASALT_SAMPLER_BITS == FEATURE2_SAMPLER_PMJ02BN     ? SAMPLER_PMJ02BN
+                                                          : 0xffffffffu;
+
+// The scene's sampler, Globals.sampler_opts.x: SAMPLER_FIXED where that is one.
+uint sampler_type() { return SAMPLER_FIXED != 0xffffffffu ? SAMPLER_FIXED : globals.sampler_opts.x; }
+
+// Value of sampler dimension (ld, c, pair) (sampler_dimension) for pixel (px, py) and sample
+// s under sampler `type`, not the independent one (sampler-spec 4). Each sampler's code is
+// compiled in only with its FEATURE2_SAMPLER_* bit.
+float sampler_value(uint type, uint px, uint py, uint s, uint ld, uint c, bool pair) {
   if (has_feature2(FEATURE2_SAMPLER_STRATIFIED) && type == SAMPLER_STRATIFIED)
     return stratified_get(px, py, s, ld, c, pair);
   if (has_feature2(FEATURE2_SAMPLER_HALTON) && type == SAMPLER_HALTON)
@@ -376,8 +383,25 @@ float sampler_get(uint px, uint py, uint s, uint d) {
     return sobol_get(px, py, s, ld, c);
   if (has_feature2(FEATURE2_SAMPLER_PMJ02BN) && type == SAMPLER_PMJ02BN)
     return pmj02bn_get(px, py, s, ld, c, pair);
+  return 0.0;  // never: the host compiles in the scene's sampler
+}
+
+// Sample value of path dimension d for pixel (px, py) and sample s under the scene's sampler
+// (sampler-spec 2 and 4); the independent sampler, and the dimensions the samplers leave to
+// the streams, are rng itself. With `own` the caller knows that d is a sampler dimension
+// (the camera's and the bounces'): with one sampler compiled in, rng's code then folds away.
+float sampler_get_dim(uint px, uint py, uint s, uint d, bool own) {
+  uint type = sampler_type();
+  uint ld, c;
+  bool pair;
+  bool sampled = sampler_dimension(d, ld, c, pair) || own;
+  if (has_feature2(FEATURE2_SAMPLERS) && type != SAMPLER_INDEPENDENT && sampled)
+    return sampler_value(type, px, py, s, ld, c, pair);
   return rng(px, py, s, d);
 }
+
+// sampler_get_dim for any path dimension d (the probe's PROBE_SAMPLER).
+float sampler_get(uint px, uint py, uint s, uint d) { return sampler_get_dim(px, py, s, d, false); }
 
 // Whether the pipeline may run a sampler other than independent (FEATURE2_SAMPLER_*).
 const bool SAMPLERS_ENABLED = feature2_const(FEATURE2_SAMPLERS);
@@ -391,7 +415,7 @@ const bool SAMPLERS_ENABLED = feature2_const(FEATURE2_SAMPLERS);
 vec4 camera_samples(uint px, uint py, uint s, uint n) {
   vec4 u = vec4(0.0);
   if (SAMPLERS_ENABLED) {
-    [[dont_unroll]] for (uint k = 0u; k < n; ++k) u[k] = sampler_get(px, py, s, k);
+    [[dont_unroll]] for (uint k = 0u; k < n; ++k) u[k] = sampler_get_dim(px, py, s, k, true);
   } else {
     u.xy = vec2(rng(px, py, s, DIM_FILTER_X), rng(px, py, s, DIM_FILTER_Y));
     if (n > 2u) u.zw = vec2(rng(px, py, s, DIM_LENS_X), rng(px, py, s, DIM_LENS_Y));
@@ -411,7 +435,7 @@ BounceSamples bounce_samples(uint px, uint py, uint s, uint dim) {
   BounceSamples u = BounceSamples(vec4(0.0), vec3(0.0));
   if (SAMPLERS_ENABLED) {
     [[dont_unroll]] for (uint k = 0u; k <= DIM_ROULETTE; ++k) {
-      float v = sampler_get(px, py, s, dim + k);
+      float v = sampler_get_dim(px, py, s, dim + k, true);
       if (k < 4u) u.a[k] = v;
       else u.b[k - 4u] = v;
     }

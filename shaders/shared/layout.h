@@ -152,14 +152,17 @@ BASALT_CONST uint FEATURE2_SAMPLER_SOBOL = 1u << 14;
 BASALT_CONST uint FEATURE2_SAMPLER_PMJ02BN = 1u << 15;
 BASALT_CONST uint FEATURE2_SAMPLERS = 0x3fu << 10;     // all six
 BASALT_CONST uint FEATURE2_LIGHT_IMPORTANCE = 1u << 16;  // lights picked by importance (path-spec 6.1)
-BASALT_CONST uint FEATURE2_COUNT = 17u;
+// The sampler's randomization is full Owen scrambling (RAND_OWEN): only such pipelines hold
+// its loop of 31 hashes, which lavapipe enters even where no lane needs it (sampler.glsl).
+BASALT_CONST uint FEATURE2_SAMPLER_OWEN = 1u << 17;
+BASALT_CONST uint FEATURE2_COUNT = 18u;
 // The bits the plain shader variants can render (BASALT_PLAIN in bindings.glsl): everything
 // but textures, image lights and bump, normal and displacement-texture mapping. The noise
 // precision bit stays: the host sets it without noise textures, and only noise code reads it.
 BASALT_CONST uint FEATURES_PLAIN_KEEP =
     ~(FEATURE_TEXTURES | FEATURE_TEX_NOISE | FEATURE_TEX_IMAGE | FEATURE_LIGHT_INFINITE_IMAGE);
 BASALT_CONST uint FEATURES2_PLAIN_KEEP = FEATURE2_NOISE_SPLIT | FEATURE2_SAMPLERS |
-                                         FEATURE2_LIGHT_IMPORTANCE;
+                                         FEATURE2_LIGHT_IMPORTANCE | FEATURE2_SAMPLER_OWEN;
 
 // ---- primitive references ------------------------------------------------------------
 // A BVH leaf covers prim_refs[a .. a+b). A ref is a triangle index, or a sphere index

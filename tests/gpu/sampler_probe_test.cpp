@@ -75,19 +75,31 @@ TEST(SamplerProbe, GpuMatchesCpuBitForBit) {
   EXPECT_EQ(ctx.validation_errors(), validation_before) << "Vulkan validation errors";
 }
 
-TEST(SamplerProbe, RendersMatchCpuUnderTheTableSamplers) {
-  // The samplers that read tables beyond the primes (sobol's matrices, pmj02bn's point sets), in
-  // a whole render with bounces (every pmj02bn set, permuted and not): the render pipeline
-  // specialised to each gives the CPU reference's image (99.9% of pixels within 1e-3, as the
-  // conformance tests ask).
+TEST(SamplerProbe, RendersMatchCpuUnderEverySampler) {
+  // Every sampler and randomisation in a whole render with bounces: the render pipeline is
+  // specialised to the one sampler (FEATURE2_SAMPLER_*, and FEATURE2_SAMPLER_OWEN for full Owen
+  // scrambling), so that its type is a constant there (sampler.glsl SAMPLER_FIXED) and the
+  // other samplers' code and Owen's loop fold away, where the probe above runs them all. The
+  // tables samplers read (sobol's matrices, pmj02bn's point sets, every set, permuted and not)
+  // are read in the render too. Each gives the CPU reference's image (99.9% of pixels within
+  // 1e-3, as the conformance tests ask). The cases are the pipelines there are: each sampler
+  // with its default randomisation and each with Owen's. The other randomisations are the
+  // same pipelines with another Globals value, their values checked bit for bit above; and
+  // without randomisation the samples are exact dyadic fractions (0, 1/2, ...), which put
+  // paths on boundaries (grazing directions from u = 0) where the two sides' last bits decide
+  // differently (paddedsobol/none: 4 of 1,280 pixels here, before this test's change as after).
   const SceneTables base = tables_from_string(path_knobs_scene());
-  for (const SamplerCase c : {SamplerCase{"sobol", ""}, SamplerCase{"pmj02bn", ""}}) {
+  for (const SamplerCase& c : sampler_cases()) {
+    if (*c.randomization && std::string(c.randomization) != "owen") continue;
     const SceneTables t = with_sampler(base, c, 4);
+    EXPECT_EQ((t.features2 & gpu::FEATURE2_SAMPLER_OWEN) != 0u,
+              std::string(c.randomization) == "owen")
+        << sampler_label(c);
     const auto cpu = render(Side::Cpu, t, 4);
     const auto gpu = render(Side::Gpu, t, 4);
     ASSERT_TRUE(all_finite(gpu)) << sampler_label(c);
     const double agree = agreeing_fraction(cpu, gpu, 1e-3f);
-    std::printf("[ sampler render ] %-8s %.4f%% of pixels agree within 1e-3\n",
+    std::printf("[ sampler render ] %-26s %.4f%% of pixels agree within 1e-3\n",
                 sampler_label(c).c_str(), 100.0 * agree);
     EXPECT_GE(agree, 0.999) << sampler_label(c);
   }
