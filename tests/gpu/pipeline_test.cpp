@@ -389,9 +389,9 @@ TEST(PlainVariant, NeverForTexturesImageLightsOrBumps) {
                          f == gpu::FEATURE_TEX_IMAGE || f == gpu::FEATURE_LIGHT_INFINITE_IMAGE;
     EXPECT_EQ(vkx::GpuRenderer::plain_suffices(f, 0u), !texture) << "feature bit " << bit;
     // The second word: the texture families and bumps out; the noise precision mode (set
-    // without noise textures too), the samplers and the light importance in.
+    // without noise textures too), the samplers, Owen scrambling and the light importance in.
     const bool sampling = f == gpu::FEATURE2_NOISE_SPLIT || (f & gpu::FEATURE2_SAMPLERS) != 0u ||
-                          f == gpu::FEATURE2_LIGHT_IMPORTANCE;
+                          f == gpu::FEATURE2_SAMPLER_OWEN || f == gpu::FEATURE2_LIGHT_IMPORTANCE;
     EXPECT_EQ(vkx::GpuRenderer::plain_suffices(0u, f), sampling) << "feature2 bit " << bit;
   }
   SceneTables t = tables_from_file(source_path("scenes/textures-procedural.pbrt"), 8, 8);
