@@ -179,8 +179,9 @@ bool path_bounce(inout PathState ps, Hit hit) {
 
   // Next-event estimation (one light picked by light_cdf, MIS against BSDF sampling) and BSDF
   // sampling. The BSDF queries of the bounce run in one loop through one bsdf_query call
-  // site (see bsdf_query): step 0 NEE f (stream +7), 1 NEE pdf (+8), 2 sample (+9), 3 pdf
-  // at the sampled wi when the sample's pdf is only proportional (+10).
+  // site (see bsdf_query): step 0 NEE f (stream +7), 1 NEE pdf (+8; only where the light is
+  // not a delta light and f > 0), 2 sample (+9), 3 pdf at the sampled wi when the sample's
+  // pdf is only proportional (+10).
   // Next-event estimation, unless the MIS mode samples the BSDF alone (path-spec 7.1).
   bool nee = has_feature(FEATURE_ANY_LIGHT) && num_lights > 0u &&
              (bsdf_flags(bsdf) & (BSDF_DIFFUSE | BSDF_GLOSSY)) != 0u &&
@@ -204,6 +205,7 @@ bool path_bounce(inout PathState ps, Hit hit) {
                  bounce_sample(us, px, py, s, dim, DIM_BSDF_U0),
                  bounce_sample(us, px, py, s, dim, DIM_BSDF_U1));
   BsdfSample bs = no_sample();
+  float pdf_nee = 0.0;
   [[dont_unroll]] for (uint step = nee ? 0u : 2u; step < 4u; ++step) {
     uint op = step == 2u ? QUERY_SAMPLE : (step == 0u ? QUERY_F : QUERY_PDF);
     vec3 wq = step == 3u ? bs.wi : wi_l;
@@ -215,16 +217,9 @@ bool path_bounce(inout PathState ps, Hit hit) {
     BsdfQuery r = bsdf_query(bsdf, op, wo_l, wq, ub, ng_l, stream);
     if (step == 0u) {
       f_nee = r.f * abs(dot(ls.wi, sp.ns));
-      bool lit = false;
-      if (any_positive(f_nee)) {
-        lit = !intersect_any(shadow_ray(sp.p, sp.ng, sp.m, ls));
-        ++ps.rays;
-      }
-      if (lit && ls.delta) ps.L += ps.beta * f_nee * ls.Li / pmf;
-      if (!lit || ls.delta) step = 1u;  // no MIS weight needed
+      if (!any_positive(f_nee) || ls.delta) step = 1u;  // no MIS weight needed
     } else if (step == 1u) {
-      float pl = pmf * ls.pdf;
-      ps.L += ps.beta * f_nee * ls.Li * mis_light(pl, r.pdf) / pl;
+      pdf_nee = r.pdf;
     } else if (step == 2u) {
       bs = r.bs;
       if (bs.flags == 0u) break;
@@ -232,6 +227,18 @@ bool path_bounce(inout PathState ps, Hit hit) {
       if (!bs.pdf_is_proportional) break;
     } else {
       ps.pdf_prev = r.pdf;
+    }
+  }
+  // The shadow ray after the loop, not in its step 0: lavapipe runs a loop's body, and every
+  // loop in it, on each of its steps whatever the lanes need (docs/performance.md).
+  if (any_positive(f_nee)) {
+    bool lit = !intersect_any(shadow_ray(sp.p, sp.ng, sp.m, ls));
+    ++ps.rays;
+    if (lit && ls.delta) {
+      ps.L += ps.beta * f_nee * ls.Li / pmf;
+    } else if (lit) {
+      float pl = pmf * ls.pdf;
+      ps.L += ps.beta * f_nee * ls.Li * mis_light(pl, pdf_nee) / pl;
     }
   }
   if (bs.flags == 0u || bs.pdf == 0.0 || !any_positive(bs.f) || bs.wi.z == 0.0) return false;
