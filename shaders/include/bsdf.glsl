@@ -687,26 +687,6 @@ BsdfQuery bsdf_query(Bsdf b, uint op, vec3 wo, vec3 wi, vec3 u, vec3 ng, uvec4 s
   uint first = sampling ? 1u : 0u;
   float own_pdf = 0.0;  // the sampled lobe's pdf at its wi (re-evaluated samples)
   [[dont_unroll]] for (uint t = 0u; t < first + b.n; ++t) {
-    if (sampling && t == 1u) {
-      // After the lobe sample: keep it, or re-evaluate f and pdf of all lobes at its wi.
-      BsdfSample bs = r.bs;
-      if (bs.flags == 0u) break;
-      if (((bs.flags & BSDF_REFLECTION) != 0u) != geo_reflect(wo, bs.wi, ng)) {
-        r.bs = no_sample();
-        break;
-      }
-      if (bs.pdf_is_proportional || (bs.flags & BSDF_SPECULAR) != 0u || b.n == 1u) {
-        r.bs.f = bsdf_lobe(ks).weight * bs.f;
-        r.bs.pdf = bs.pdf / n;
-        break;
-      }
-      wi = bs.wi;
-      q = QUERY_F | QUERY_PDF;
-      if (geo_reflect(wo, wi, ng) != (wo.z * wi.z > 0.0)) {
-        wi.z = -wi.z;
-        q = QUERY_F;
-      }
-    }
     uint k = (sampling && t == 0u) ? ks : t - first;
     Lobe L = bsdf_lobe(k);
     bool lobe_sampling = sampling && t == 0u;
@@ -716,7 +696,27 @@ BsdfQuery bsdf_query(Bsdf b, uint op, vec3 wo, vec3 wi, vec3 u, vec3 ng, uvec4 s
     BsdfSample bs;
     lobe_query(L, lobe_sampling ? QUERY_SAMPLE : q, wo, wi, ul, stream, f, pdf, bs);
     if (lobe_sampling) {
+      // The lobe sample: keep it, or re-evaluate f and pdf of all lobes at its wi in the next
+      // passes. Decided here at the end of the pass, not at the start of the next one: lavapipe
+      // runs a pass that any lane enters in full, and where no lane goes on there is then no
+      // next pass (docs/performance.md, seventh session).
       r.bs = bs;
+      if (bs.flags == 0u) break;
+      if (((bs.flags & BSDF_REFLECTION) != 0u) != geo_reflect(wo, bs.wi, ng)) {
+        r.bs = no_sample();
+        break;
+      }
+      if (bs.pdf_is_proportional || (bs.flags & BSDF_SPECULAR) != 0u || b.n == 1u) {
+        r.bs.f = L.weight * bs.f;
+        r.bs.pdf = bs.pdf / n;
+        break;
+      }
+      wi = bs.wi;
+      q = QUERY_F | QUERY_PDF;
+      if (geo_reflect(wo, wi, ng) != (wo.z * wi.z > 0.0)) {
+        wi.z = -wi.z;
+        q = QUERY_F;
+      }
     } else {
       if ((q & QUERY_F) != 0u) r.f += L.weight * f;
       if ((q & QUERY_PDF) != 0u) r.pdf += pdf;
