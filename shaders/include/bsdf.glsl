@@ -686,42 +686,42 @@ BsdfQuery bsdf_query(Bsdf b, uint op, vec3 wo, vec3 wi, vec3 u, vec3 ng, uvec4 s
   // Job t: the lobe sample first (t = 0 when sampling), then f / pdf of lobe k = t - first.
   uint first = sampling ? 1u : 0u;
   float own_pdf = 0.0;  // the sampled lobe's pdf at its wi (re-evaluated samples)
-  [[dont_unroll]] for (uint t = 0u; t < first + b.n; ++t) {
+  uint t = 0u;
+  [[dont_unroll]] while (true) {
     uint k = (sampling && t == 0u) ? ks : t - first;
     Lobe L = bsdf_lobe(k);
     bool lobe_sampling = sampling && t == 0u;
-    if (!lobe_sampling && !lobe_nonspecular(L)) continue;
-    vec3 f;
-    float pdf;
-    BsdfSample bs;
-    lobe_query(L, lobe_sampling ? QUERY_SAMPLE : q, wo, wi, ul, stream, f, pdf, bs);
-    if (lobe_sampling) {
-      // The lobe sample: keep it, or re-evaluate f and pdf of all lobes at its wi in the next
-      // passes. Decided here at the end of the pass, not at the start of the next one: lavapipe
-      // runs a pass that any lane enters in full, and where no lane goes on there is then no
-      // next pass (docs/performance.md, seventh session).
-      r.bs = bs;
-      if (bs.flags == 0u) break;
-      if (((bs.flags & BSDF_REFLECTION) != 0u) != geo_reflect(wo, bs.wi, ng)) {
-        r.bs = no_sample();
-        break;
+    if (lobe_sampling || lobe_nonspecular(L)) {
+      vec3 f;
+      float pdf;
+      BsdfSample bs;
+      lobe_query(L, lobe_sampling ? QUERY_SAMPLE : q, wo, wi, ul, stream, f, pdf, bs);
+      if (lobe_sampling) {
+        r.bs = bs;
+        if (bs.flags == 0u) break;
+        if (((bs.flags & BSDF_REFLECTION) != 0u) != geo_reflect(wo, bs.wi, ng)) {
+          r.bs = no_sample();
+          break;
+        }
+        if (bs.pdf_is_proportional || (bs.flags & BSDF_SPECULAR) != 0u || b.n == 1u) {
+          r.bs.f = L.weight * bs.f;
+          r.bs.pdf = bs.pdf / n;
+          break;
+        }
+        wi = bs.wi;
+        q = QUERY_F | QUERY_PDF;
+        if (geo_reflect(wo, wi, ng) != (wo.z * wi.z > 0.0)) {
+          wi.z = -wi.z;
+          q = QUERY_F;
+        }
+      } else {
+        if ((q & QUERY_F) != 0u) r.f += L.weight * f;
+        if ((q & QUERY_PDF) != 0u) r.pdf += pdf;
+        if (sampling && k == ks) own_pdf = pdf;
       }
-      if (bs.pdf_is_proportional || (bs.flags & BSDF_SPECULAR) != 0u || b.n == 1u) {
-        r.bs.f = L.weight * bs.f;
-        r.bs.pdf = bs.pdf / n;
-        break;
-      }
-      wi = bs.wi;
-      q = QUERY_F | QUERY_PDF;
-      if (geo_reflect(wo, wi, ng) != (wo.z * wi.z > 0.0)) {
-        wi.z = -wi.z;
-        q = QUERY_F;
-      }
-    } else {
-      if ((q & QUERY_F) != 0u) r.f += L.weight * f;
-      if ((q & QUERY_PDF) != 0u) r.pdf += pdf;
-      if (sampling && k == ks) own_pdf = pdf;
     }
+    ++t;
+    if (t >= first + b.n) break;
   }
   if (!sampling) {
     r.pdf /= n;

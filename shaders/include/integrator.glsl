@@ -206,7 +206,10 @@ bool path_bounce(inout PathState ps, Hit hit) {
                  bounce_sample(us, px, py, s, dim, DIM_BSDF_U1));
   BsdfSample bs = no_sample();
   float pdf_nee = 0.0;
-  [[dont_unroll]] for (uint step = nee ? 0u : 2u; step < 4u; ++step) {
+  // The loop's end is tested at the end of a pass (lavapipe runs a pass that any lane enters
+  // in full: a `for` loop's closing test cost a whole pass, docs/performance.md).
+  uint step = nee ? 0u : 2u;
+  [[dont_unroll]] while (true) {
     uint op = step == 2u ? QUERY_SAMPLE : (step == 0u ? QUERY_F : QUERY_PDF);
     vec3 wq = step == 3u ? bs.wi : wi_l;
 #if BSDF_ALL_MATERIALS
@@ -228,6 +231,8 @@ bool path_bounce(inout PathState ps, Hit hit) {
     } else {
       ps.pdf_prev = r.pdf;
     }
+    ++step;
+    if (step >= 4u) break;
   }
   // The shadow ray after the loop, not in its step 0: lavapipe runs a loop's body, and every
   // loop in it, on each of its steps whatever the lanes need (docs/performance.md).

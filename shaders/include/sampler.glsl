@@ -415,7 +415,11 @@ const bool SAMPLERS_ENABLED = feature2_const(FEATURE2_SAMPLERS);
 vec4 camera_samples(uint px, uint py, uint s, uint n) {
   vec4 u = vec4(0.0);
   if (SAMPLERS_ENABLED) {
-    [[dont_unroll]] for (uint k = 0u; k < n; ++k) u[k] = sampler_get_dim(px, py, s, k, true);
+    uint k = 0u;  // n >= 2; the end tested at the end of a pass (see bounce_samples)
+    [[dont_unroll]] while (true) {
+      u[k] = sampler_get_dim(px, py, s, k, true);
+      if (++k >= n) break;
+    }
   } else {
     u.xy = vec2(rng(px, py, s, DIM_FILTER_X), rng(px, py, s, DIM_FILTER_Y));
     if (n > 2u) u.zw = vec2(rng(px, py, s, DIM_LENS_X), rng(px, py, s, DIM_LENS_Y));
@@ -434,10 +438,14 @@ struct BounceSamples {
 BounceSamples bounce_samples(uint px, uint py, uint s, uint dim) {
   BounceSamples u = BounceSamples(vec4(0.0), vec3(0.0));
   if (SAMPLERS_ENABLED) {
-    [[dont_unroll]] for (uint k = 0u; k <= DIM_ROULETTE; ++k) {
+    // The end tested at the end of a pass: lavapipe runs a pass that any lane enters in full,
+    // so a `for` loop's closing test cost an eighth pass of the sampler (docs/performance.md).
+    uint k = 0u;
+    [[dont_unroll]] while (true) {
       float v = sampler_get_dim(px, py, s, dim + k, true);
       if (k < 4u) u.a[k] = v;
       else u.b[k - 4u] = v;
+      if (++k > DIM_ROULETTE) break;
     }
   }
   return u;
