@@ -152,124 +152,150 @@ vec3 layered_f(Lobe L, vec3 wo, vec3 wi, uvec4 key) {
   float exit_z = y.thickness;  // the exit interface is the top
   uint j = 0u;
   vec3 f = vec3(0.0);
-  for (int s = 0; s < y.n_samples; ++s) {
+  // The loops below test their end at the end of a pass, not at the start of the next: lavapipe
+  // runs a pass that any lane enters in full, so a `for` loop's closing test cost a whole pass
+  // of its body (docs/performance.md, seventh session). Their `continue`s are ifs for the same
+  // reason (a `continue` jumps to the test).
+  int s = 0;
+  if (y.n_samples > 0) [[dont_unroll]] while (true) {
     // k = -1 (first sample only): reflection at the entrance, nSamples f_top(wo, wi);
     // k = 0, 1: transmission through the top for wo (radiance) and for wi (importance).
     BsdfSample wos, wis;
     bool ok = true;
-    [[dont_unroll]] for (int k = s == 0 ? -1 : 0; k < 2; ++k) {
+    int k = s == 0 ? -1 : 0;
+    [[dont_unroll]] while (true) {
       vec3 ur = k < 0 ? vec3(0.0) : layer_rn(key, j, 3u);
       BsdfSample t = dielectric_query(y.eta, y.top, k == 1 ? wi : wo, wi, ur.x, ur.yz, k >= 0,
                                       k != 1, k < 0 ? SAMPLE_ALL : SAMPLE_T);
       if (k < 0) {
         f = float(y.n_samples) * vec3(t.f.x);
-        continue;
-      }
-      if (!walk_sample_ok(t)) {
+      } else if (!walk_sample_ok(t)) {
         ok = false;
         break;
-      }
-      if (k == 0) wos = t;
-      else wis = t;
-    }
-    if (!ok) continue;
-
-    precise vec3 beta = wos.f * abs(wos.wi.z) / wos.pdf;
-    float z = y.thickness;
-    vec3 w = wos.wi;
-    for (int depth = 0; depth < y.max_depth; ++depth) {
-      // Russian roulette
-      if (depth > 3 && max_component(beta) < 0.25) {
-        float q = max(0.0, 1.0 - max_component(beta));
-        if (layer_rn(key, j, 1u).x < q) break;
-        beta /= 1.0 - q;
-      }
-      // NEE through the top along w after a scattering event: exit_nee (done at e = 2 below).
-      bool exit_nee = false, exit_mis = true;
-      float exit_pdf_s = 0.0, exit_dz = 0.0;
-      vec3 exit_w = vec3(0.0);
-      bool scattered = false;
-      if (!has_albedo) {
-        z = (z == y.thickness) ? 0.0 : y.thickness;
-        beta *= layer_tr(y.thickness, w);
+      } else if (k == 0) {
+        wos = t;
       } else {
-        float sigma_t = 1.0;
-        precise float dz = -log(1.0 - layer_rn(key, j, 1u).x) / (sigma_t / abs(w.z));
-        precise float zp = w.z > 0.0 ? (z + dz) : (z - dz);
-        if (z == zp) continue;
-        if (0.0 < zp && zp < y.thickness) {
-          // Scattering in the medium: NEE along the presampled wis through the top.
-          float wt = 1.0;
-          float ph = hg_p(-w, -wis.wi, y.g);
-          if (!top_spec) wt = layer_power(wis.pdf, ph);
-          f += beta * y.albedo * ph * wt * layer_tr(zp - exit_z, wis.wi) * wis.f / wis.pdf;
-          vec3 ur = layer_rn(key, j, 2u);
-          float ps_pdf;
-          vec3 ps_wi = hg_sample(-w, y.g, ur.xy, ps_pdf);
-          if (ps_pdf == 0.0 || ps_wi.z == 0.0) continue;
-          beta *= y.albedo * ps_pdf / ps_pdf;
-          w = ps_wi;
-          z = zp;
-          if (((z < exit_z && w.z > 0.0) || (z > exit_z && w.z < 0.0)) && !top_spec) {
-            exit_nee = true;
-            exit_pdf_s = ps_pdf;
-            exit_dz = zp - exit_z;
-            exit_w = ps_wi;
-          }
-          scattered = true;
-        } else {
-          z = clamp(zp, 0.0, y.thickness);
-        }
+        wis = t;
       }
-      // The interface events of this step, through one layer_query call site: e = 0, NEE along
-      // the presampled wis at the bottom; e = 1, sampling the interface at z (reflection);
-      // e = 2, 3, NEE through the top towards wi along the new w: e = 2, the density with
-      // which the wis strategy produces -w, PDF(wi, -w) in importance mode (MIS weight; pbrt-v4
-      // uses PDF(-w, wi), see docs/materials-spec.md 2.3), e = 3, f(-w, wi).
-      bool at_exit = z == exit_z;
-      bool stop = false;
-      float exit_pdf = 0.0;
-      [[dont_unroll]] for (int e = scattered ? 2 : 0; e < 4; ++e) {
-        if (e == 0 && (at_exit || bot_spec)) continue;
-        if (e >= 2 && !exit_nee) break;
-        if (e == 2 && !exit_mis) continue;
-        vec3 ur = e == 1 ? layer_rn(key, j, 3u) : vec3(0.0);
-        // e = 2 with --layered-mis pbrt-v4: pbrt-v4's PDF(-w, wi) in radiance mode instead.
-        bool nee_pdf = e == 2 && !y.pbrt_mis;
-        BsdfSample t = layer_query(y, e >= 2 || (e == 1 && at_exit), nee_pdf ? wi : -w,
-                                   e == 0 ? -wis.wi : (nee_pdf ? -w : wi), ur.x, ur.yz, e == 1,
-                                   !nee_pdf, e >= 2 ? SAMPLE_T : SAMPLE_R);
-        if (e == 0) {
-          float wt = 1.0;
-          if (!top_spec) wt = layer_power(wis.pdf, t.pdf);
-          f += beta * t.f * abs(wis.wi.z) * wt * layer_tr(y.thickness, wis.wi) * wis.f / wis.pdf;
-        } else if (e == 1) {
-          if (!walk_sample_ok(t)) {
-            stop = true;
-            break;
-          }
-          beta *= t.f * abs(t.wi.z) / t.pdf;
-          w = t.wi;
-          if (!at_exit && !top_spec) {
-            exit_nee = true;
-            exit_mis = !bot_spec;
-            exit_pdf_s = t.pdf;
-            exit_dz = y.thickness;
-            exit_w = t.wi;
-          }
-        } else if (e == 2) {
-          exit_pdf = t.pdf;
-        } else {
-          float f_exit = t.f.x;
-          if (f_exit != 0.0) {
-            float wt = 1.0;
-            if (exit_mis) wt = layer_power(exit_pdf_s, exit_pdf);
-            f += beta * layer_tr(exit_dz, exit_w) * f_exit * wt;
-          }
-        }
-      }
-      if (stop) break;
+      ++k;
+      if (k >= 2) break;
     }
+    if (ok) {
+      precise vec3 beta = wos.f * abs(wos.wi.z) / wos.pdf;
+      float z = y.thickness;
+      vec3 w = wos.wi;
+      int depth = 0;
+      if (y.max_depth > 0) [[dont_unroll]] while (true) {
+        // NEE through the top along w after a scattering event: exit_nee (done at e = 2 below).
+        bool exit_nee = false, exit_mis = true;
+        float exit_pdf_s = 0.0, exit_dz = 0.0;
+        vec3 exit_w = vec3(0.0);
+        bool scattered = false;
+        bool next = false;  // pbrt-v4's `continue`: on to the next step
+        if (!has_albedo) {
+          z = (z == y.thickness) ? 0.0 : y.thickness;
+          beta *= layer_tr(y.thickness, w);
+        } else {
+          float sigma_t = 1.0;
+          precise float dz = -log(1.0 - layer_rn(key, j, 1u).x) / (sigma_t / abs(w.z));
+          precise float zp = w.z > 0.0 ? (z + dz) : (z - dz);
+          if (z == zp) {
+            next = true;
+          } else if (0.0 < zp && zp < y.thickness) {
+            // Scattering in the medium: NEE along the presampled wis through the top.
+            float wt = 1.0;
+            float ph = hg_p(-w, -wis.wi, y.g);
+            if (!top_spec) wt = layer_power(wis.pdf, ph);
+            f += beta * y.albedo * ph * wt * layer_tr(zp - exit_z, wis.wi) * wis.f / wis.pdf;
+            vec3 ur = layer_rn(key, j, 2u);
+            float ps_pdf;
+            vec3 ps_wi = hg_sample(-w, y.g, ur.xy, ps_pdf);
+            if (ps_pdf == 0.0 || ps_wi.z == 0.0) {
+              next = true;
+            } else {
+              beta *= y.albedo * ps_pdf / ps_pdf;
+              w = ps_wi;
+              z = zp;
+              if (((z < exit_z && w.z > 0.0) || (z > exit_z && w.z < 0.0)) && !top_spec) {
+                exit_nee = true;
+                exit_pdf_s = ps_pdf;
+                exit_dz = zp - exit_z;
+                exit_w = ps_wi;
+              }
+              scattered = true;
+            }
+          } else {
+            z = clamp(zp, 0.0, y.thickness);
+          }
+        }
+        bool stop = false;
+        if (!next) {
+          // The interface events of this step, through one layer_query call site: e = 0, NEE
+          // along the presampled wis at the bottom; e = 1, sampling the interface at z
+          // (reflection); e = 2, 3, NEE through the top towards wi along the new w: e = 2, the
+          // density with which the wis strategy produces -w, PDF(wi, -w) in importance mode
+          // (MIS weight; pbrt-v4 uses PDF(-w, wi), see docs/materials-spec.md 2.3), e = 3,
+          // f(-w, wi).
+          bool at_exit = z == exit_z;
+          float exit_pdf = 0.0;
+          int e = scattered ? 2 : 0;
+          [[dont_unroll]] while (true) {
+            bool skip = (e == 0 && (at_exit || bot_spec)) || (e >= 2 && !exit_nee) ||
+                        (e == 2 && !exit_mis);
+            if (!skip) {
+              vec3 ur = e == 1 ? layer_rn(key, j, 3u) : vec3(0.0);
+              // e = 2 with --layered-mis pbrt-v4: pbrt-v4's PDF(-w, wi) in radiance mode instead.
+              bool nee_pdf = e == 2 && !y.pbrt_mis;
+              BsdfSample t = layer_query(y, e >= 2 || (e == 1 && at_exit), nee_pdf ? wi : -w,
+                                         e == 0 ? -wis.wi : (nee_pdf ? -w : wi), ur.x, ur.yz,
+                                         e == 1, !nee_pdf, e >= 2 ? SAMPLE_T : SAMPLE_R);
+              if (e == 0) {
+                float wt = 1.0;
+                if (!top_spec) wt = layer_power(wis.pdf, t.pdf);
+                f += beta * t.f * abs(wis.wi.z) * wt * layer_tr(y.thickness, wis.wi) * wis.f /
+                     wis.pdf;
+              } else if (e == 1) {
+                if (!walk_sample_ok(t)) {
+                  stop = true;
+                  break;
+                }
+                beta *= t.f * abs(t.wi.z) / t.pdf;
+                w = t.wi;
+                if (!at_exit && !top_spec) {
+                  exit_nee = true;
+                  exit_mis = !bot_spec;
+                  exit_pdf_s = t.pdf;
+                  exit_dz = y.thickness;
+                  exit_w = t.wi;
+                }
+              } else if (e == 2) {
+                exit_pdf = t.pdf;
+              } else {
+                float f_exit = t.f.x;
+                if (f_exit != 0.0) {
+                  float wt = 1.0;
+                  if (exit_mis) wt = layer_power(exit_pdf_s, exit_pdf);
+                  f += beta * layer_tr(exit_dz, exit_w) * f_exit * wt;
+                }
+              }
+            }
+            ++e;
+            if (e >= 4 || (e >= 2 && !exit_nee)) break;
+          }
+        }
+        if (stop) break;
+        ++depth;
+        if (depth >= y.max_depth) break;
+        // Russian roulette for the next step (pbrt-v4's at its start: the same draw, in order)
+        if (depth > 3 && max_component(beta) < 0.25) {
+          float q = max(0.0, 1.0 - max_component(beta));
+          if (layer_rn(key, j, 1u).x < q) break;
+          beta /= 1.0 - q;
+        }
+      }
+    }
+    ++s;
+    if (s >= y.n_samples) break;
   }
   return y.n_samples > 0 ? f / float(y.n_samples) : vec3(0.0);  // pbrt-v4: 0 / 0
 }
@@ -386,7 +412,9 @@ float layered_pdf(Lobe L, vec3 wo, vec3 wi, uvec4 key) {
   uint j = 0u;
   float pdf_sum = 0.0;
   bool top_spec_only = mf_smooth(y.top);  // !IsNonSpecular(top.Flags())
-  for (int s = 0; s < y.n_samples; ++s) {
+  // End tests at the end of a pass, as in layered_f.
+  int s = 0;
+  if (y.n_samples > 0) [[dont_unroll]] while (true) {
     // TRT term through one layer_query call site: k = -1 (first sample only), reflection pdf
     // of the entrance x nSamples; k = 0, 1, transmission through the top for wo and wi (both
     // always drawn); k = 2, bottom pdf(-wos.wi, -wis.wi); k = 3, bottom sample at -wos.wi;
@@ -394,10 +422,8 @@ float layered_pdf(Lobe L, vec3 wo, vec3 wi, uvec4 key) {
     BsdfSample wos, wis, rs;
     float r_pdf = 0.0, t_pdf = 0.0;
     bool wos_ok = false, wis_ok = false, rs_ok = false;
-    [[dont_unroll]] for (int k = s == 0 ? -1 : 0; k < 5; ++k) {
-      if (k == 2 && !(wos_ok && wis_ok)) break;
-      if (k == 3 && top_spec_only) break;
-      if (k == 4 && !rs_ok) break;
+    int k = s == 0 ? -1 : 0;
+    [[dont_unroll]] while (true) {
       bool smp = k == 0 || k == 1 || k == 3;
       vec3 ur = smp ? layer_rn(key, j, 3u) : vec3(0.0);
       vec3 qwo = k == 1 ? wi : (k == 2 || k == 3 ? -wos.wi : (k == 4 ? -rs.wi : wo));
@@ -411,19 +437,25 @@ float layered_pdf(Lobe L, vec3 wo, vec3 wi, uvec4 key) {
       else if (k == 2) r_pdf = t.pdf;
       else if (k == 3) { rs = t; rs_ok = t_ok; }
       else t_pdf = t.pdf;
+      ++k;
+      if (k >= 5 || (k == 2 && !(wos_ok && wis_ok)) || (k == 3 && top_spec_only) ||
+          (k == 4 && !rs_ok))
+        break;
     }
-    if (!(wos_ok && wis_ok)) continue;
-    if (top_spec_only) {
-      pdf_sum += r_pdf;
-      continue;
+    if (wos_ok && wis_ok) {
+      if (top_spec_only) {
+        pdf_sum += r_pdf;
+      } else if (rs_ok) {
+        if (!bottom_nonspecular(y)) {
+          pdf_sum += t_pdf;
+        } else {
+          pdf_sum += layer_power(wis.pdf, r_pdf) * r_pdf;
+          pdf_sum += layer_power(rs.pdf, t_pdf) * t_pdf;
+        }
+      }
     }
-    if (!rs_ok) continue;
-    if (!bottom_nonspecular(y)) {
-      pdf_sum += t_pdf;
-    } else {
-      pdf_sum += layer_power(wis.pdf, r_pdf) * r_pdf;
-      pdf_sum += layer_power(rs.pdf, t_pdf) * t_pdf;
-    }
+    ++s;
+    if (s >= y.n_samples) break;
   }
   return layer_pdf_mix(y.n_samples > 0 ? pdf_sum / float(y.n_samples) : 0.0);
 }
