@@ -215,7 +215,11 @@ Hit bvh_trace(Ray ray, bool any_hit) {
   // 16-byte buffer, shorter than one node.
   uint item = bvh_word_count() < 4u ? INVALID_INDEX : 0u;
   const float FAR = uintBitsToFloat(0x7f800000u);
-  while (item != INVALID_INDEX) {
+  // Each loop tests its end at the end of a pass: lavapipe runs a pass that any lane enters in
+  // full, so a loop's closing test at the start of a pass cost a whole pass of it (for the
+  // traversal: a node step, a primitive and a pop; docs/performance.md, seventh session).
+  if (item != INVALID_INDEX) [[dont_unroll]] while (true) {
+    bool descend = false;  // on to the nearest child, nothing popped
     if ((item & BVH_WIDE_LEAF) == 0u) {
       // A wide node: test its four children.
       uvec4 w0 = bvh_word(4u * item);
@@ -253,13 +257,14 @@ Hit bvh_trace(Ray ray, bool any_hit) {
       }
       if (k0 < FAR) {
         item = i0;
-        continue;
+        descend = true;
       }
     } else {
-      // A leaf over prim_refs[first, first + count).
+      // A leaf over prim_refs[first, first + count), count >= 1.
       uint first = item & (BVH_WIDE_FIRST_LIMIT - 1u);
       uint end = first + ((item >> 26) & 31u) + 1u;
-      for (uint k = first; k < end; ++k) {
+      uint k = first;
+      [[dont_unroll]] while (true) {
         uint ref;
         vec2 b12;
         float t;
@@ -284,17 +289,22 @@ Hit bvh_trace(Ray ray, bool any_hit) {
           best = Hit(t, b12.x, b12.y, ref);
           if (any_hit) return best;
         }
+        if (++k >= end) break;
       }
     }
-    // Pop, skipping entries that start beyond the best hit so far.
-    item = INVALID_INDEX;
-    while (sp > 0) {
-      --sp;
-      if (stack_t[sp] <= best.t) {
-        item = stack_item[sp];
-        break;
+    if (!descend) {
+      // Pop, skipping entries that start beyond the best hit so far.
+      item = INVALID_INDEX;
+      if (sp > 0) [[dont_unroll]] while (true) {
+        --sp;
+        if (stack_t[sp] <= best.t) {
+          item = stack_item[sp];
+          break;
+        }
+        if (sp <= 0) break;
       }
     }
+    if (item == INVALID_INDEX) break;
   }
   if (best.prim == INVALID_INDEX) best.t = -1.0;
   return best;
