@@ -30,7 +30,10 @@ void main() {
   uint width = globals.image.x;
   vec4 sum = vec4(0.0);
   uint rays = 0u, nonfinite = 0u;
-  for (uint s = pc.sample_start; s < pc.sample_start + pc.sample_count; ++s) {
+  // The loop's end is tested at the end of a pass: lavapipe runs a pass that any lane enters
+  // in full, and a for loop's closing test cost a whole path (docs/performance.md).
+  uint s = pc.sample_start;
+  if (pc.sample_count > 0u) while (true) {
     vec3 L = path_radiance(px, py, s, rays);
     // A NaN or infinity would poison the pixel: it is dropped, and counted so that tests
     // and --stats see it (docs/path-spec.md section 9).
@@ -39,6 +42,7 @@ void main() {
       nonfinite++;
     }
     sum += vec4(L, 1.0);
+    if (++s >= pc.sample_start + pc.sample_count) break;
   }
   accum[py * width + px] += sum;
   atomicAdd(counters[0], rays);

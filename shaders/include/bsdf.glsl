@@ -105,7 +105,8 @@ void slots_resolve(uint m, SurfacePoint sp) {
   slot_textured = mask;
   uint shifts = 0u;
   if (BUMP_ENABLED && bump_wanted(material_head(m).y)) shifts = bump_central() ? 4u : 2u;
-  [[dont_unroll]] for (uint k = 0u; mask != 0u || k < shifts;) {
+  uint k = 0u;  // the end tested at the end of a pass (a for loop's closing test costs a pass)
+  if (mask != 0u || k < shifts) [[dont_unroll]] while (true) {
     bool shifted = BUMP_ENABLED && mask == 0u;
     uint slot = shifted ? SLOT_DISPLACEMENT : uint(findLSB(mask));
     TexCtx c = sp.tex;
@@ -119,6 +120,7 @@ void slots_resolve(uint m, SurfacePoint sp) {
       bump_disp_uv[k] = v.x;
       ++k;
     }
+    if (mask == 0u && k >= shifts) break;
   }
 }
 

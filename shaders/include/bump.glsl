@@ -154,9 +154,13 @@ bool normal_map(SurfacePoint sp, uint level, out vec3 dpdu, out vec3 dpdv) {
   vec4 w = normal_map_weights(dx, dy);
   precise vec3 rgb = vec3(0.0);
   // One texel read site (code size): texels (xi, yi), (xi+1, yi), (xi, yi+1), (xi+1, yi+1).
-  [[dont_unroll]] for (uint k = 0u; k < 4u; ++k) {
-    vec3 tx = mipmap_texel(level, xy + ivec2(int(k & 1u), int(k >> 1u)), WRAP_REPEAT, false);
-    rgb = k == 0u ? w[0] * tx : rgb + w[k] * tx;
+  {  // the end tested at the end of a pass (a for loop's closing test costs lavapipe a pass)
+    uint k = 0u;
+    [[dont_unroll]] while (true) {
+      vec3 tx = mipmap_texel(level, xy + ivec2(int(k & 1u), int(k >> 1u)), WRAP_REPEAT, false);
+      rgb = k == 0u ? w[0] * tx : rgb + w[k] * tx;
+      if (++k >= 4u) break;
+    }
   }
   // 5.2: the tangent-space normal.
   precise vec3 nt = 2.0 * rgb - vec3(1.0);

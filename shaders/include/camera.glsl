@@ -23,9 +23,11 @@ struct CameraRay {
 // FilterSampler). Bin i is the largest index with cdf[i] <= u.
 float filter_sample_axis(float u, uint base, uint n, float r) {
   uint lo = 0u, hi = n;
-  while (hi - lo > 1u) {
+  // The end tested at the end of a pass (a loop's closing test costs lavapipe a pass).
+  if (hi - lo > 1u) while (true) {
     uint mid = (lo + hi) / 2u;
     if (filter_cdf[base + mid] <= u) lo = mid; else hi = mid;
+    if (hi - lo <= 1u) break;
   }
   float c0 = filter_cdf[base + lo];
   float width = filter_cdf[base + lo + 1u] - c0;

@@ -74,7 +74,11 @@ precise float fr_complex1(float cos_i, float eta_re, float eta_im) {
 // FrComplex per rgb channel (docs/materials-spec.md 2.2), in a loop (one inlined copy).
 vec3 fr_complex(float cos_i, vec3 eta, vec3 k) {
   vec3 r = vec3(0.0);
-  [[dont_unroll]] for (int c = 0; c < 3; ++c) r[c] = fr_complex1(cos_i, eta[c], k[c]);
+  int c = 0;  // the end tested at the end of a pass (a loop's closing test costs lavapipe a pass)
+  [[dont_unroll]] while (true) {
+    r[c] = fr_complex1(cos_i, eta[c], k[c]);
+    if (++c >= 3) break;
+  }
   return r;
 }
 

@@ -37,12 +37,14 @@ vec3 escaped_radiance(vec3 o, vec3 d, vec3 p_prev, bool unweighted, float pdf_pr
   vec3 L = vec3(0.0);
   if (has_feature(FEATURE_LIGHT_INFINITE | FEATURE_LIGHT_INFINITE_IMAGE)) {
     uint n = min(globals.counts.y, MAX_INFINITE_LIGHTS);
-    [[dont_unroll]] for (uint k = 0u; k < n; ++k) {
+    uint k = 0u;  // the end tested at the end of a pass (see path_bounce's BSDF loop)
+    if (n > 0u) [[dont_unroll]] while (true) {
       uint li = globals.infinite_lights[k];
       float pl;
       vec3 Le = infinite_light_le(li, o, p_prev, d, pl);
       float w = unweighted ? 1.0 : mis_bsdf(pdf_prev, pl);
       L += w * Le;
+      if (++k >= n) break;
     }
   }
   return L;

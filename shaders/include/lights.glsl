@@ -36,9 +36,11 @@ struct LightSample {
 // docs/path-spec.md sections 2 and 6 over the n + 1 cdf entries).
 uint light_select(float u, uint n) {
   uint lo = 0u, hi = n;
-  while (hi - lo > 1u) {
+  // The end tested at the end of a pass (a loop's closing test costs lavapipe a pass).
+  if (hi - lo > 1u) while (true) {
     uint mid = (lo + hi) / 2u;
     if (light_cdf[mid] <= u) lo = mid; else hi = mid;
+    if (hi - lo <= 1u) break;
   }
   return lo;
 }
@@ -114,7 +116,8 @@ LightPick light_pick(float u, uint n, vec3 p, vec3 ns) {
   // Two passes over the lights, the sum and then the pick, in one loop so that
   // light_importance has one call site here (lavapipe inlines each).
   float sum = 0.0, target = 0.0, acc = 0.0, picked = 0.0;
-  [[dont_unroll]] for (uint i = 0u; i < 2u * n; ++i) {
+  uint i = 0u;  // the end tested at the end of a pass (see light_select)
+  if (n > 0u) [[dont_unroll]] while (true) {
     uint k = i < n ? i : i - n;
     if (i == n) {
       if (!(sum > 0.0)) return LightPick(li, 0.0);
@@ -129,6 +132,7 @@ LightPick light_pick(float u, uint n, vec3 p, vec3 ns) {
       acc += w;
       if (target < acc) break;
     }
+    if (++i >= 2u * n) break;
   }
   if (n == 0u && !(sum > 0.0)) return LightPick(li, 0.0);
   return LightPick(li, uintBitsToFloat(globals.light_opts.y) * (picked / sum));
@@ -140,10 +144,12 @@ float light_pick_pmf(uint li, uint n, vec3 p, vec3 ns) {
   float pmf = light_at(li).pmf;
   if (!light_importance_on() || light_infinite_extent(li)) return pmf;
   float sum = 0.0, own = 0.0;
-  for (uint k = 0u; k < n; ++k) {
+  uint k = 0u;  // the end tested at the end of a pass (see light_select)
+  if (n > 0u) [[dont_unroll]] while (true) {
     float w = light_importance(k, p, ns);
     sum += w;
     if (k == li) own = w;
+    if (++k >= n) break;
   }
   return sum > 0.0 ? uintBitsToFloat(globals.light_opts.y) * (own / sum) : 0.0;
 }

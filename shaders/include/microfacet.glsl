@@ -112,13 +112,15 @@ precise float mf_term(MfDist d, vec3 w, bool want_d) {
 vec3 mf_dgp(MfDist d, vec3 wo, vec3 wi, vec3 wm, vec3 wp) {
   float t0 = 0.0, t1 = 0.0, t2 = 0.0, t3 = 0.0;
   bool two = wp != wm;
-  [[dont_unroll]] for (int k = 0; k < (two ? 4 : 3); ++k) {
+  int k = 0;  // the end tested at the end of a pass (a loop's closing test costs lavapipe a pass)
+  [[dont_unroll]] while (true) {
     vec3 w = k == 0 ? wm : (k == 1 ? wo : (k == 2 ? wi : wp));
     float v = mf_term(d, w, k == 0 || k == 3);
     if (k == 0) t0 = v;
     else if (k == 1) t1 = v;
     else if (k == 2) t2 = v;
     else t3 = v;
+    if (++k >= (two ? 4 : 3)) break;
   }
   float dp = two ? t3 : t0;
   precise float g = 1.0 / (1.0 + t1 + t2);

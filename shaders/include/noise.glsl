@@ -140,27 +140,35 @@ float noise_sum(vec3 p, vec3 dpdx, vec3 dpdy, float omega, int max_octaves, bool
   precise float partial = n - float(n_int);
   float fade = noise_smooth_step(partial, 0.3, 0.7);
   // Octave i < n_int in full, then the partial one (i == n_int): one noise call site.
-  [[dont_unroll]] for (int i = 0; i <= n_int; ++i) {
-    // Lookup at lambda p: pbrt-v4's fp32 product, or the exact product as a float pair.
-    precise vec3 hi = lambda * p;
-    vec3 lo = vec3(0.0);
-    if (split) noise_two_prod(lambda, p, hi, lo);
-    float v = perlin_noise_hl(hi, lo);
-    if (turb) v = abs(v);
-    if (i < n_int) {
-      sum += o * v;
-      lambda *= 1.99;  // pbrt-v4's octave step
-      o *= omega;
-    } else if (turb) {
-      sum += o * noise_lerp(fade, 0.2, v);
-    } else {
-      sum += o * fade * v;
+  {  // the end tested at the end of a pass (a for loop's closing test costs lavapipe a pass)
+    int i = 0;
+    if (i <= n_int) [[dont_unroll]] while (true) {
+      // Lookup at lambda p: pbrt-v4's fp32 product, or the exact product as a float pair.
+      precise vec3 hi = lambda * p;
+      vec3 lo = vec3(0.0);
+      if (split) noise_two_prod(lambda, p, hi, lo);
+      float v = perlin_noise_hl(hi, lo);
+      if (turb) v = abs(v);
+      if (i < n_int) {
+        sum += o * v;
+        lambda *= 1.99;  // pbrt-v4's octave step
+        o *= omega;
+      } else if (turb) {
+        sum += o * noise_lerp(fade, 0.2, v);
+      } else {
+        sum += o * fade * v;
+      }
+      if (++i > n_int) break;
     }
   }
   if (turb) {
-    for (int i = n_int; i < max_octaves; ++i) {
-      sum += o * 0.2;
-      o *= omega;
+    {  // the end tested at the end of a pass (a for loop's closing test costs lavapipe a pass)
+      int i = n_int;
+      if (i < max_octaves) [[dont_unroll]] while (true) {
+        sum += o * 0.2;
+        o *= omega;
+        if (++i >= max_octaves) break;
+      }
     }
   }
   return sum;
@@ -222,12 +230,16 @@ float shirley_noise(vec3 p) {
 float shirley_noise_sum(vec3 p, int octaves, bool turb) {
   precise float sum = 0.0;
   precise float f = 1.0;
-  [[dont_unroll]] for (int i = 0; i < octaves; ++i) {
-    precise vec3 q = f * p;
-    float n = shirley_noise(q);
-    precise float term = (turb ? abs(n) : n) / f;
-    sum += term;
-    f *= 2.0;
+  {  // the end tested at the end of a pass (a for loop's closing test costs lavapipe a pass)
+    int i = 0;
+    if (i < octaves) [[dont_unroll]] while (true) {
+      precise vec3 q = f * p;
+      float n = shirley_noise(q);
+      precise float term = (turb ? abs(n) : n) / f;
+      sum += term;
+      f *= 2.0;
+      if (++i >= octaves) break;
+    }
   }
   return sum;
 }

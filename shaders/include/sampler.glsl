@@ -271,12 +271,15 @@ float zsobol_get(uint px, uint py, uint s, uint ld, uint c) {
   uint64_t idx = 0ul;
   int odd = int(l & 1u);
   uint dkey = 0x55555555u * ld;
-  for (int i = digits - 1; i >= odd; --i) {
+  // The end tested at the end of a pass (a for loop's closing test costs lavapipe a pass).
+  int i = digits - 1;
+  if (i >= odd) while (true) {
     uint shift = uint(2 * i - odd);
     uint digit = uint(morton >> shift) & 3u;
     uint64_t higher = morton >> (shift + 2u);
     uint p = (mix32(uint(higher) ^ mix32(uint(higher >> 32u)) ^ dkey) >> 24u) % 24u;
     idx |= uint64_t(perm4(p, digit)) << shift;
+    if (--i < odd) break;
   }
   if (odd != 0)
     idx |= (morton & 1ul) ^

@@ -433,16 +433,20 @@ vec3 tex_eval_rgb(uint root, TexCtx c) {
   if (no_feature(FEATURE_TEXTURES) || root >= uint(textures.length())) return vec3(0.0);
   vec3 stack[MAX_TEXTURE_STACK];
   int top = 0;
-  [[dont_unroll]] for (uint i = texture_at(root).first; i <= root; ++i) {
-    int k = tex_child_count(texture_at(i).type);
-    if (top < k) return vec3(0.0);  // malformed program (the host never emits one)
-    top -= k;
-    vec3 a0 = k > 0 ? stack[top] : vec3(0.0);
-    vec3 a1 = k > 1 ? stack[top + 1] : vec3(0.0);
-    vec3 a2 = k > 2 ? stack[top + 2] : vec3(0.0);
-    vec3 v = tex_instruction(i, c, a0, a1, a2);
-    if (top >= int(MAX_TEXTURE_STACK)) return vec3(0.0);
-    stack[top++] = v;
+  {  // the end tested at the end of a pass (a for loop's closing test costs lavapipe a pass)
+    uint i = texture_at(root).first;
+    if (i <= root) [[dont_unroll]] while (true) {
+      int k = tex_child_count(texture_at(i).type);
+      if (top < k) return vec3(0.0);  // malformed program (the host never emits one)
+      top -= k;
+      vec3 a0 = k > 0 ? stack[top] : vec3(0.0);
+      vec3 a1 = k > 1 ? stack[top + 1] : vec3(0.0);
+      vec3 a2 = k > 2 ? stack[top + 2] : vec3(0.0);
+      vec3 v = tex_instruction(i, c, a0, a1, a2);
+      if (top >= int(MAX_TEXTURE_STACK)) return vec3(0.0);
+      stack[top++] = v;
+      if (++i > root) break;
+    }
   }
   return top > 0 ? stack[top - 1] : vec3(0.0);
 }
