@@ -512,10 +512,11 @@ const uint QUERY_SAMPLE = 4u;
 
 // One lobe's f (without its weight; 0 for specular lobes) and/or pdf (0 for specular lobes) at
 // (wo, wi), or its sample with u = (u_lobe', u0, u1) (QUERY_SAMPLE), f without the weight;
-// stochastic lobes draw from `stream`. One switch for the three operations, so that every
-// lobe's code is inlined once per call site of this function (bsdf_query has one).
-void lobe_query(Lobe L, uint q, vec3 wo, vec3 wi, vec3 u, uvec4 stream, out vec3 f,
-                out float pdf, out BsdfSample bs) {
+// stochastic lobes draw from `stream`, their pdf from `pdf_stream`. One switch for the three
+// operations, so that every lobe's code is inlined once per call site of this function
+// (bsdf_query has one).
+void lobe_query(Lobe L, uint q, vec3 wo, vec3 wi, vec3 u, uvec4 stream, uvec4 pdf_stream,
+                out vec3 f, out float pdf, out BsdfSample bs) {
   f = vec3(0.0);
   pdf = 0.0;
   bs = no_sample();
@@ -633,7 +634,7 @@ void lobe_query(Lobe L, uint q, vec3 wo, vec3 wi, vec3 u, uvec4 stream, out vec3
           bs = layered_sample(L, wo, u.x, u.yz, stream);
         } else {
           if ((q & QUERY_F) != 0u) f = layered_f(L, wo, wi, stream);
-          if ((q & QUERY_PDF) != 0u) pdf = layered_pdf(L, wo, wi, stream);
+          if ((q & QUERY_PDF) != 0u) pdf = layered_pdf(L, wo, wi, pdf_stream);
         }
       }
       break;
@@ -668,7 +669,10 @@ bool geo_reflect(vec3 wo, vec3 wi, vec3 ng) { return dot_exact(wo, ng) * dot_exa
 //   single-lobe samples keep their f (weight applied) and pdf / n, others take f and pdf of
 //   all lobes at wi (none if the sampled lobe's own pdf there is below FLT_MIN, pbrt-v3);
 //   empty samples (f = 0, pdf = 0, wi.z = 0) are none (pbrt-v4 BSDF::Sample_f).
-BsdfQuery bsdf_query(Bsdf b, uint op, vec3 wo, vec3 wi, vec3 u, vec3 ng, uvec4 stream) {
+// The stochastic lobes' f and samples draw from `stream`, their pdf from `pdf_stream` (the
+// integrator asks f and pdf of the NEE direction in one query, from their two streams).
+BsdfQuery bsdf_query2(Bsdf b, uint op, vec3 wo, vec3 wi, vec3 u, vec3 ng, uvec4 stream,
+                      uvec4 pdf_stream) {
   BsdfQuery r = BsdfQuery(vec3(0.0), 0.0, no_sample());
   if (wo.z == 0.0 || b.n == 0u) return r;
   bool sampling = op == QUERY_SAMPLE;
@@ -697,7 +701,9 @@ BsdfQuery bsdf_query(Bsdf b, uint op, vec3 wo, vec3 wi, vec3 u, vec3 ng, uvec4 s
       vec3 f;
       float pdf;
       BsdfSample bs;
-      lobe_query(L, lobe_sampling ? QUERY_SAMPLE : q, wo, wi, ul, stream, f, pdf, bs);
+      // The re-evaluation at a sample's wi draws f and pdf from the sample's stream.
+      lobe_query(L, lobe_sampling ? QUERY_SAMPLE : q, wo, wi, ul, stream,
+                 sampling ? stream : pdf_stream, f, pdf, bs);
       if (lobe_sampling) {
         r.bs = bs;
         if (bs.flags == 0u) break;
@@ -735,6 +741,11 @@ BsdfQuery bsdf_query(Bsdf b, uint op, vec3 wo, vec3 wi, vec3 u, vec3 ng, uvec4 s
     if (!usable(r.bs)) r.bs = no_sample();
   }
   return r;
+}
+
+// bsdf_query2 with one stream for everything.
+BsdfQuery bsdf_query(Bsdf b, uint op, vec3 wo, vec3 wi, vec3 u, vec3 ng, uvec4 stream) {
+  return bsdf_query2(b, op, wo, wi, u, ng, stream, stream);
 }
 
 // f(wo, wi) of the BSDF (docs/materials-spec.md 1.2, 1.3); see bsdf_query.

@@ -181,9 +181,8 @@ bool path_bounce(inout PathState ps, Hit hit) {
 
   // Next-event estimation (one light picked by light_cdf, MIS against BSDF sampling) and BSDF
   // sampling. The BSDF queries of the bounce run in one loop through one bsdf_query call
-  // site (see bsdf_query): step 0 NEE f (stream +7), 1 NEE pdf (+8; only where the light is
-  // not a delta light and f > 0), 2 sample (+9), 3 pdf at the sampled wi when the sample's
-  // pdf is only proportional (+10).
+  // site (see bsdf_query2): step 0 NEE f (stream +7) and NEE pdf (+8) in one query, 2 sample
+  // (+9), 3 pdf at the sampled wi when the sample's pdf is only proportional (+10).
   // Next-event estimation, unless the MIS mode samples the BSDF alone (path-spec 7.1).
   bool nee = has_feature(FEATURE_ANY_LIGHT) && num_lights > 0u &&
              (bsdf_flags(bsdf) & (BSDF_DIFFUSE | BSDF_GLOSSY)) != 0u &&
@@ -212,19 +211,23 @@ bool path_bounce(inout PathState ps, Hit hit) {
   // in full: a `for` loop's closing test cost a whole pass, docs/performance.md).
   uint step = nee ? 0u : 2u;
   [[dont_unroll]] while (true) {
-    uint op = step == 2u ? QUERY_SAMPLE : (step == 0u ? QUERY_F : QUERY_PDF);
+    // Step 0 asks f and pdf of the NEE direction in one query, each from its own stream (+7,
+    // +8), so step 1 has no pass of its own (lavapipe runs every lobe's f, pdf and sample code
+    // in each pass of this loop).
+    uint op = step == 2u ? QUERY_SAMPLE : (step == 0u ? (QUERY_F | QUERY_PDF) : QUERY_PDF);
     vec3 wq = step == 3u ? bs.wi : wi_l;
 #if BSDF_ALL_MATERIALS
     uvec4 stream = stream_key(px, py, s, dim + DIM_NEE_EVAL_STREAM + step);
+    uvec4 pdf_stream = step == 0u ? stream_key(px, py, s, dim + DIM_NEE_PDF_STREAM) : stream;
 #else
     uvec4 stream = uvec4(0u);  // the lean variant has no stochastic lobe
+    uvec4 pdf_stream = stream;
 #endif
-    BsdfQuery r = bsdf_query(bsdf, op, wo_l, wq, ub, ng_l, stream);
+    BsdfQuery r = bsdf_query2(bsdf, op, wo_l, wq, ub, ng_l, stream, pdf_stream);
     if (step == 0u) {
       f_nee = r.f * abs(dot(ls.wi, sp.ns));
-      if (!any_positive(f_nee) || ls.delta) step = 1u;  // no MIS weight needed
-    } else if (step == 1u) {
-      pdf_nee = r.pdf;
+      pdf_nee = r.pdf;  // the MIS weight's, where f > 0 and the light is not a delta light
+      step = 1u;
     } else if (step == 2u) {
       bs = r.bs;
       if (bs.flags == 0u) break;
