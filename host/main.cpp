@@ -211,6 +211,7 @@ int run(const Options& opt) {
     st.seconds_upload = gpu.seconds_upload;
     st.seconds_pipeline = gpu.seconds_pipeline;
     st.seconds_specialise = gpu.seconds_specialise;
+    st.second_device_compiles = gpu.second_device_compiles;
     st.table_bytes = gpu.device_bytes;
     st.wave_bytes = gpu.wave_bytes;
     st.shader_variant = gpu.variant;

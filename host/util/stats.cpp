@@ -51,6 +51,8 @@ std::string to_json(const RenderStats& st) {
   o << "  \"seconds_pipeline\": " << number(st.seconds_pipeline) << ",\n";
   if (st.seconds_specialise > 0)
     o << "  \"seconds_specialise\": " << number(st.seconds_specialise) << ",\n";
+  if (st.second_device_compiles > 0)
+    o << "  \"second_device_compiles\": " << st.second_device_compiles << ",\n";
   if (!st.shader_variant.empty())
     o << "  \"shader_variant\": " << quote(st.shader_variant) << ",\n"
       << "  \"shader_plain\": " << (st.shader_plain ? "true" : "false") << ",\n";

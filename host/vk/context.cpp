@@ -2,9 +2,11 @@
 #include "vk/context.h"
 
 #include <algorithm>
+#include <bit>
 #include <cctype>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <iostream>
 #include <stdexcept>
 
@@ -32,6 +34,18 @@ void init_loader() {
   if (!get_instance_proc) throw std::runtime_error("Vulkan loader (libvulkan.so.1) not found");
   VULKAN_HPP_DEFAULT_DISPATCHER.init(get_instance_proc);
   done = true;
+}
+
+/// A device of \p physical with one queue of \p family and the features basalt uses
+/// (shaderInt64).
+vk::Device create_device(vk::PhysicalDevice physical, std::uint32_t family) {
+  float priority = 1.0f;
+  vk::DeviceQueueCreateInfo queue_info{
+      .queueFamilyIndex = family, .queueCount = 1, .pQueuePriorities = &priority};
+  vk::PhysicalDeviceFeatures features{};
+  features.shaderInt64 = VK_TRUE;
+  return physical.createDevice(
+      {.queueCreateInfoCount = 1, .pQueueCreateInfos = &queue_info, .pEnabledFeatures = &features});
 }
 
 /// Creates a bare instance, for listing devices.
@@ -159,18 +173,11 @@ Context::Context(const std::string& selector, bool validation) {
       break;
     }
   if (queue_family == UINT32_MAX) throw std::runtime_error(info_.name + " has no compute queue");
-  float priority = 1.0f;
-  vk::DeviceQueueCreateInfo queue_info{
-      .queueFamilyIndex = queue_family, .queueCount = 1, .pQueuePriorities = &priority};
   // 64-bit integers: the sample indices of the halton and zsobol samplers
   // (docs/sampler-spec.md 4); every desktop driver and lavapipe have them.
   if (!physical.getFeatures().shaderInt64)
     throw std::runtime_error(info_.name + " lacks shaderInt64, which basalt's samplers need");
-  vk::PhysicalDeviceFeatures features{};
-  features.shaderInt64 = VK_TRUE;
-  device = physical.createDevice({.queueCreateInfoCount = 1,
-                                  .pQueueCreateInfos = &queue_info,
-                                  .pEnabledFeatures = &features});
+  device = create_device(physical, queue_family);
   VULKAN_HPP_DEFAULT_DISPATCHER.init(device);
   queue = device.getQueue(queue_family, 0);
   pool = device.createCommandPool({.flags = vk::CommandPoolCreateFlagBits::eResetCommandBuffer,
@@ -236,6 +243,159 @@ void Context::end_commands_and_wait(vk::CommandBuffer cmd) {
   if (result != vk::Result::eSuccess) throw std::runtime_error("Vulkan fence wait failed");
   device.resetFences(fence_);
   device.freeCommandBuffers(pool, cmd);
+}
+
+namespace {
+constexpr vk::BufferUsageFlags kDummyUsage =
+    vk::BufferUsageFlagBits::eStorageBuffer | vk::BufferUsageFlagBits::eUniformTexelBuffer;
+}  // namespace
+
+CompileDevice::CompileDevice(const Context& ctx) {
+  // Its calls go through the default dispatcher's entry points, which the Context loaded for
+  // its own device of the same driver (re-initialising it here would race the other threads).
+  device_ = create_device(ctx.physical, ctx.queue_family);
+  queue_ = device_.getQueue(ctx.queue_family, 0);
+  pool_ = device_.createCommandPool({.queueFamilyIndex = ctx.queue_family});
+  fence_ = device_.createFence({});
+  dummy_.size = 4096;
+  dummy_.buffer = device_.createBuffer({.size = dummy_.size, .usage = kDummyUsage});
+  const auto req = device_.getBufferMemoryRequirements(dummy_.buffer);
+  memory_type_ = ctx.memory_type(req.memoryTypeBits);
+  dummy_.memory = device_.allocateMemory({.allocationSize = req.size, .memoryTypeIndex = memory_type_});
+  device_.bindBufferMemory(dummy_.buffer, dummy_.memory, 0);
+}
+
+CompileDevice::~CompileDevice() {
+  device_.waitIdle();
+  release_texel_buffers();
+  device_.destroyBuffer(dummy_.buffer);
+  device_.freeMemory(dummy_.memory);
+  device_.destroyFence(fence_);
+  device_.destroyCommandPool(pool_);
+  device_.destroy();
+}
+
+bool CompileDevice::shader_cache_on() {
+  for (const char* name : {"MESA_SHADER_CACHE_DISABLE", "MESA_GLSL_CACHE_DISABLE"}) {
+    const char* v = std::getenv(name);
+    if (v && *v && lower(v) != "false" && std::string(v) != "0") return false;
+  }
+  return true;
+}
+
+void CompileDevice::release_texel_buffers() {
+  for (auto& [key, made] : texel_buffers_) {
+    device_.destroyBufferView(made.second);
+    device_.destroyBuffer(made.first);
+  }
+  texel_buffers_.clear();
+  if (backing_) device_.freeMemory(backing_);
+  backing_ = nullptr;
+  backing_bytes_ = 0;
+}
+
+void CompileDevice::compile(const std::uint32_t* code, std::size_t bytes,
+                            const vk::SpecializationInfo& spec,
+                            const std::vector<vk::DescriptorSetLayoutBinding>& bindings,
+                            const std::vector<TexelBinding>& texels,
+                            const std::vector<std::uint8_t>& push,
+                            const std::function<void()>& meanwhile) {
+  const std::uint32_t push_bytes = std::uint32_t(push.size());
+  const std::lock_guard<std::mutex> lock(mutex_);
+  const vk::DescriptorSetLayout set_layout = device_.createDescriptorSetLayout(
+      {.bindingCount = std::uint32_t(bindings.size()), .pBindings = bindings.data()});
+  const vk::PushConstantRange range{
+      .stageFlags = vk::ShaderStageFlagBits::eCompute, .offset = 0, .size = push_bytes};
+  const vk::PipelineLayout layout = device_.createPipelineLayout({.setLayoutCount = 1,
+                                                                  .pSetLayouts = &set_layout,
+                                                                  .pushConstantRangeCount = 1,
+                                                                  .pPushConstantRanges = &range});
+  const vk::ShaderModule module = device_.createShaderModule({.codeSize = bytes, .pCode = code});
+  auto made = device_.createComputePipeline(
+      nullptr, {.stage = {.stage = vk::ShaderStageFlagBits::eCompute,
+                          .module = module,
+                          .pName = "main",
+                          .pSpecializationInfo = &spec},
+                .layout = layout});
+  device_.destroyShaderModule(module);
+  const std::uint32_t texel_count = std::uint32_t(texels.size());
+  const vk::DescriptorPoolSize sizes[2] = {
+      {.type = vk::DescriptorType::eStorageBuffer,
+       .descriptorCount = std::max(1u, std::uint32_t(bindings.size()) - texel_count)},
+      {.type = vk::DescriptorType::eUniformTexelBuffer,
+       .descriptorCount = std::max(1u, texel_count)}};
+  const vk::DescriptorPool pool =
+      device_.createDescriptorPool({.maxSets = 1, .poolSizeCount = 2, .pPoolSizes = sizes});
+  const vk::DescriptorSet set = device_.allocateDescriptorSets(
+      {.descriptorPool = pool, .descriptorSetCount = 1, .pSetLayouts = &set_layout})[0];
+  // Every storage buffer binding gets the small buffer: nothing runs, but a dispatch needs its
+  // descriptors valid. A texel view gets one of its table's size and range, all aliasing one
+  // allocation that nothing touches: lavapipe's compiled code depends on them (they are part
+  // of Mesa's cache key), storage buffers' sizes are not.
+  const vk::DescriptorBufferInfo whole{.buffer = dummy_.buffer, .offset = 0, .range = dummy_.size};
+  vk::DeviceSize largest = 0;
+  for (const TexelBinding& t : texels) largest = std::max(largest, t.buffer_bytes);
+  if (largest > backing_bytes_) {
+    release_texel_buffers();
+    vk::Buffer probe = device_.createBuffer({.size = largest, .usage = kDummyUsage});
+    const vk::DeviceSize bytes = device_.getBufferMemoryRequirements(probe).size;
+    device_.destroyBuffer(probe);
+    backing_ = device_.allocateMemory({.allocationSize = bytes, .memoryTypeIndex = memory_type_});
+    backing_bytes_ = largest;
+  }
+  std::vector<vk::BufferView> texel_views;
+  for (const TexelBinding& t : texels) {
+    auto& [buffer, view] = texel_buffers_[{VkFormat(t.format), t.buffer_bytes, t.view_bytes}];
+    if (!view) {
+      buffer = device_.createBuffer({.size = t.buffer_bytes, .usage = kDummyUsage});
+      (void)device_.getBufferMemoryRequirements(buffer);
+      device_.bindBufferMemory(buffer, backing_, 0);
+      view = device_.createBufferView(
+          {.buffer = buffer, .format = t.format, .offset = 0, .range = t.view_bytes});
+    }
+    texel_views.push_back(view);
+  }
+  std::vector<vk::WriteDescriptorSet> writes;
+  std::uint32_t k = 0;
+  for (const vk::DescriptorSetLayoutBinding& b : bindings) {
+    vk::WriteDescriptorSet w{.dstSet = set,
+                             .dstBinding = b.binding,
+                             .descriptorCount = 1,
+                             .descriptorType = b.descriptorType};
+    if (b.descriptorType == vk::DescriptorType::eUniformTexelBuffer)
+      w.pTexelBufferView = &texel_views.at(k++);
+    else
+      w.pBufferInfo = &whole;
+    writes.push_back(w);
+  }
+  device_.updateDescriptorSets(writes, {});
+  vk::CommandBuffer cmd = device_.allocateCommandBuffers(
+      {.commandPool = pool_, .level = vk::CommandBufferLevel::ePrimary, .commandBufferCount = 1})[0];
+  cmd.begin({.flags = vk::CommandBufferUsageFlagBits::eOneTimeSubmit});
+  if (made.result == vk::Result::eSuccess) {
+    cmd.bindPipeline(vk::PipelineBindPoint::eCompute, made.value);
+    cmd.bindDescriptorSets(vk::PipelineBindPoint::eCompute, layout, 0, set, {});
+    cmd.pushConstants(layout, vk::ShaderStageFlagBits::eCompute, 0, push_bytes, push.data());
+    cmd.dispatch(0, 1, 1);  // no workgroup: lavapipe compiles the shader all the same
+  }
+  cmd.end();
+  queue_.submit(vk::SubmitInfo{.commandBufferCount = 1, .pCommandBuffers = &cmd}, fence_);
+  // This device's queue thread compiles while the caller's work runs here.
+  std::exception_ptr error;
+  if (meanwhile) try {
+      meanwhile();
+    } catch (...) {
+      error = std::current_exception();
+    }
+  const vk::Result waited = device_.waitForFences(fence_, VK_TRUE, UINT64_MAX);
+  device_.resetFences(fence_);
+  device_.freeCommandBuffers(pool_, cmd);
+  device_.destroyDescriptorPool(pool);
+  if (made.result == vk::Result::eSuccess) device_.destroyPipeline(made.value);
+  device_.destroyPipelineLayout(layout);
+  device_.destroyDescriptorSetLayout(set_layout);
+  if (error) std::rethrow_exception(error);
+  if (waited != vk::Result::eSuccess) throw std::runtime_error("Vulkan fence wait failed");
 }
 
 }  // namespace basalt::vkx

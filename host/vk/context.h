@@ -2,6 +2,10 @@
 #pragma once
 #include <atomic>
 #include <cstddef>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <tuple>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -69,6 +73,7 @@ class Context {
   vk::CommandPool pool;
 
  private:
+  friend class CompileDevice;  // memory_type
   vk::CommandBuffer begin_commands();
   void end_commands_and_wait(vk::CommandBuffer cmd);
   std::uint32_t memory_type(std::uint32_t bits) const;
@@ -81,6 +86,56 @@ class Context {
                                                       VkDebugUtilsMessageTypeFlagsEXT,
                                                       const VkDebugUtilsMessengerCallbackDataEXT*,
                                                       void*);
+};
+
+/// \brief A second logical device on a Context's physical device that only compiles pipelines.
+/// lavapipe compiles a compute shader with LLVM at its first dispatch, on the thread of the
+/// dispatching device's one queue, so one device compiles its pipelines one after another; a
+/// second device's queue compiles on another core at the same time, and its code reaches the
+/// first device through Mesa's shader cache, which both devices share (docs/performance.md).
+class CompileDevice {
+ public:
+  /// \brief Opens the second device (the same queue family and features as \p ctx's).
+  explicit CompileDevice(const Context& ctx);
+  ~CompileDevice();
+  CompileDevice(const CompileDevice&) = delete;
+  CompileDevice& operator=(const CompileDevice&) = delete;
+  /// \brief Whether Mesa's shader cache is on in this process's environment (without it the
+  ///        second device's compile reaches nobody): MESA_SHADER_CACHE_DISABLE and the older
+  ///        MESA_GLSL_CACHE_DISABLE unset or false.
+  static bool shader_cache_on();
+  /// A uniform texel buffer binding's view format, its buffer's size and the view's range.
+  struct TexelBinding {
+    vk::Format format;
+    vk::DeviceSize buffer_bytes, view_bytes;
+  };
+  /// \brief Creates the compute pipeline of SPIR-V \p code (\p bytes long) with \p spec,
+  ///        descriptor set layout \p bindings and \p push.size() bytes of push constants;
+  ///        binds each storage buffer to a small buffer and the k-th uniform texel buffer to a
+  ///        buffer and view as \p texels[k] describes (no memory is touched); dispatches no
+  ///        workgroup with push constants \p push (lavapipe compiles the shader all the same);
+  ///        calls \p meanwhile while this device's queue compiles, then waits and destroys the
+  ///        pipeline. Calls from several threads take turns.
+  void compile(const std::uint32_t* code, std::size_t bytes, const vk::SpecializationInfo& spec,
+               const std::vector<vk::DescriptorSetLayoutBinding>& bindings,
+               const std::vector<TexelBinding>& texels, const std::vector<std::uint8_t>& push,
+               const std::function<void()>& meanwhile = {});
+
+ private:
+  void release_texel_buffers();
+  vk::Device device_;
+  vk::Queue queue_;
+  vk::CommandPool pool_;
+  vk::Fence fence_;
+  std::uint32_t memory_type_ = 0;
+  Buffer dummy_;  // 4096 bytes, bound to every storage buffer binding
+  // The texel views' buffers, by format, size and range, bound to backing_ (which is at least
+  // backing_bytes_ long), and their views.
+  std::map<std::tuple<VkFormat, vk::DeviceSize, vk::DeviceSize>, std::pair<vk::Buffer, vk::BufferView>>
+      texel_buffers_;
+  vk::DeviceMemory backing_;
+  vk::DeviceSize backing_bytes_ = 0;
+  std::mutex mutex_;
 };
 
 }  // namespace basalt::vkx

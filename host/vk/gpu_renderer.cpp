@@ -9,6 +9,7 @@
 #include <cstring>
 #include <exception>
 #include <future>
+#include <memory>
 #include <atomic>
 #include <thread>
 #include <numeric>
@@ -290,6 +291,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
                                                   .format = v.format,
                                                   .offset = 0,
                                                   .range = texels * v.texel_bytes}));
+    view_bytes_.push_back(texels * v.texel_bytes);
   }
   seconds_upload = since(t0);
   if (uploaded) uploaded();  // from here on only materials, textures and feature words are read
@@ -378,6 +380,17 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     // fewer cores than pipelines each is then made by the time the queue's thread reaches it,
     // instead of all being made slowly at once (material-zoo on 2 cores: 3.45 -> 3.08 s).
     const std::size_t cores = std::max(2u, std::thread::hardware_concurrency());
+    // On lavapipe, with two shade groups or more, group 0's pipeline (without the layered
+    // walks: the smaller) is compiled by a second device (CompileDevice) while this device's
+    // queue compiles the others; it comes last here, so this queue finds its code in Mesa's
+    // shader cache once it has compiled the rest.
+    std::unique_ptr<CompileDevice> compiler;
+    if (ctx_.info().is_cpu && stages.size() >= 3 && stages[1] == 0 && parallel_compile &&
+        CompileDevice::shader_cache_on()) {
+      compiler = std::make_unique<CompileDevice>(ctx_);
+      std::rotate(stages.begin() + 1, stages.begin() + 2, stages.end());
+    }
+    const auto on_second = [&](std::size_t i) { return compiler && i + 1 == stages.size(); };
     const std::size_t workers = std::min(stages.size(), cores);
     std::vector<std::promise<Pipeline>> promised(stages.size());
     std::vector<std::future<Pipeline>> made;
@@ -386,7 +399,8 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     std::vector<std::thread> threads;
     for (std::size_t w = 0; w < workers; ++w)
       threads.emplace_back([&, features, features2] {
-        for (std::size_t i; (i = next++) < stages.size();) try {
+        for (std::size_t i; (i = next++) < stages.size();) {
+          try {
             const std::uint32_t g = stages[i];
             promised[i].set_value(
                 g == kExtend
@@ -395,10 +409,11 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
                                              features2, wf_bindings_, wf_path_view_)
                              : make_pipeline(wavefront_extend_spv, sizeof(wavefront_extend_spv),
                                              features, features2, wf_bindings_, wf_path_view_))
-                    : make_wf_shade(g));
+                    : make_wf_shade(g, on_second(i) ? compiler.get() : nullptr));
           } catch (...) {
             promised[i].set_exception(std::current_exception());
           }
+        }
       });
     // In order, each compiled by an empty dispatch as soon as it is created; on an error every
     // thread is waited for and what they made is destroyed before it is passed on.
@@ -464,7 +479,7 @@ GpuRenderer::~GpuRenderer() {
 GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std::size_t bytes,
                                                  std::uint32_t features, std::uint32_t features2,
                                                  const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings,
-                                                 vk::BufferView wf_paths) {
+                                                 vk::BufferView wf_paths, CompileDevice* compiler) {
   auto& dev = ctx_.device;
   Pipeline p;
   std::vector<vk::DescriptorSetLayoutBinding> layout_bindings;
@@ -501,9 +516,9 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
   const std::vector<std::uint32_t> words = {features, features2, leaf_prims ? 1u : 0u,
                                             texel_tables ? 1u : 0u};
   std::vector<std::uint32_t> specialised;
+  bool hit = false;  // basalt's cache had the specialised module
   if (features != 0xffffffffu || features2 != 0xffffffffu) {
     const auto t0 = Clock::now();
-    bool hit = false;
     // The wavefront's stages are inlined whatever their size (the extend stage, 71-78 KiB,
     // translates faster so too, and it shares a worker with a shade pipeline); the
     // megakernels above kInlineAboveWords only (the Cornell box's cold start pays nothing).
@@ -514,7 +529,6 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
     spirv = specialised.data();
     bytes = specialised.size() * sizeof(std::uint32_t);
   }
-  vk::ShaderModule module = dev.createShaderModule({.codeSize = bytes, .pCode = spirv});
   std::vector<vk::SpecializationMapEntry> entries;
   for (std::uint32_t k = 0; k < words.size(); ++k)
     entries.push_back(vk::SpecializationMapEntry{
@@ -523,16 +537,36 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
                               .pMapEntries = entries.data(),
                               .dataSize = words.size() * sizeof(std::uint32_t),
                               .pData = words.data()};
-  vk::ComputePipelineCreateInfo info{
-      .stage = {.stage = vk::ShaderStageFlagBits::eCompute,
-                .module = module,
-                .pName = "main",
-                .pSpecializationInfo = &spec},
-      .layout = p.layout};
-  auto result = dev.createComputePipeline(nullptr, info);
-  dev.destroyShaderModule(module);
-  if (result.result != vk::Result::eSuccess) throw std::runtime_error("pipeline creation failed");
-  p.pipeline = result.value;
+  const auto create = [&] {
+    vk::ShaderModule module = dev.createShaderModule({.codeSize = bytes, .pCode = spirv});
+    vk::ComputePipelineCreateInfo info{.stage = {.stage = vk::ShaderStageFlagBits::eCompute,
+                                                 .module = module,
+                                                 .pName = "main",
+                                                 .pSpecializationInfo = &spec},
+                                       .layout = p.layout};
+    auto result = dev.createComputePipeline(nullptr, info);
+    dev.destroyShaderModule(module);
+    if (result.result != vk::Result::eSuccess) throw std::runtime_error("pipeline creation failed");
+    p.pipeline = result.value;
+  };
+  // With a second device, created here while that device compiles it: the first dispatch on
+  // this device then finds LLVM's code in Mesa's shader cache (CompileDevice, context.h).
+  // Not when basalt's cache had the module: Mesa's then has its code too, and the second
+  // device would only translate it once more.
+  if (compiler && !hit) {
+    std::vector<CompileDevice::TexelBinding> texels;
+    for (std::uint32_t k = 0; k < views_.size(); ++k)
+      texels.push_back({kTexelViews[k].format, tables_[kTexelViews[k].table].size,
+                        view_bytes_[k]});
+    if (wf_paths) texels.push_back({vk::Format::eR32G32B32A32Uint, wf_paths_.size, wf_paths_.size});
+    const gpu::PassConstants pc{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_};
+    std::vector<std::uint8_t> push(sizeof pc);
+    std::memcpy(push.data(), &pc, sizeof pc);
+    compiler->compile(spirv, bytes, spec, layout_bindings, texels, push, create);
+    ++second_device_compiles;  // one worker makes the one pipeline of the second device
+  } else {
+    create();
+  }
 
   const vk::DescriptorPoolSize sizes[2] = {
       {.type = vk::DescriptorType::eStorageBuffer, .descriptorCount = std::uint32_t(bindings.size())},
@@ -615,13 +649,13 @@ std::uint32_t GpuRenderer::wf_shade_features2(std::uint32_t group) const {
   return (wf_features2_ & ~families) | (wf_features2_ & families & tex);
 }
 
-GpuRenderer::Pipeline GpuRenderer::make_wf_shade(std::uint32_t group) {
+GpuRenderer::Pipeline GpuRenderer::make_wf_shade(std::uint32_t group, CompileDevice* compiler) {
   return plain ? make_pipeline(wavefront_shade_plain_spv, sizeof(wavefront_shade_plain_spv),
                                wf_shade_features(group), wf_shade_features2(group), wf_bindings_,
-                               wf_path_view_)
+                               wf_path_view_, compiler)
                : make_pipeline(wavefront_shade_spv, sizeof(wavefront_shade_spv),
                                wf_shade_features(group), wf_shade_features2(group), wf_bindings_,
-                               wf_path_view_);
+                               wf_path_view_, compiler);
 }
 
 GpuRenderer::Pipeline& GpuRenderer::wf_shade(std::uint32_t type) {

@@ -104,6 +104,12 @@ class GpuRenderer {
   static inline bool plain_builds = true;
   /// Tests set this false to specialise every shade group for all the scene's texture families.
   static inline bool group_texture_features = true;
+  /// Whether the wavefront's pipelines may be compiled on a second device as well (lavapipe
+  /// only, with Mesa's shader cache on; CompileDevice): tests and benchmarks turn it off to
+  /// compare.
+  static inline bool parallel_compile = true;
+  /// Pipelines compiled on the second device (CompileDevice) at construction: 0 or 1.
+  std::uint32_t second_device_compiles = 0;
   /// \brief The feature words the shade pipeline of MATERIAL_* \p type is specialised for
   ///        (wavefront only: the scene's, with the material bits and the texture families of
   ///        its group).
@@ -126,7 +132,7 @@ class GpuRenderer {
   Pipeline make_pipeline(const std::uint32_t* spirv, std::size_t bytes, std::uint32_t features,
                          std::uint32_t features2,
                          const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings,
-                         vk::BufferView wf_paths = {});
+                         vk::BufferView wf_paths = {}, CompileDevice* compiler = nullptr);
   void destroy_pipeline(Pipeline& p);
   void dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint32_t invocations);
 
@@ -138,6 +144,7 @@ class GpuRenderer {
   // The uniform texel views: BINDING_BVH_TEXELS + k views the table of kTexelViews[k]
   // (gpu_renderer.cpp); bound to every pipeline.
   std::vector<vk::BufferView> views_;
+  std::vector<vk::DeviceSize> view_bytes_;  // their ranges
   Pipeline render_{};
   // A pipeline over an input and an output buffer of `capacity` entries (BINDING_PROBE_IN,
   // BINDING_PROBE_OUT), built on the first call and rebuilt only when a call needs more room
@@ -174,7 +181,7 @@ class GpuRenderer {
   /// mixes in wf_mix_group_).
   std::uint32_t wf_group_of(std::uint32_t type) const;
   /// \brief Makes the shade pipeline of group \p group (the plain build when \c plain).
-  Pipeline make_wf_shade(std::uint32_t group);
+  Pipeline make_wf_shade(std::uint32_t group, CompileDevice* compiler = nullptr);
   /// \brief The shade pipeline of MATERIAL_* \p type, built if it is not yet.
   Pipeline& wf_shade(std::uint32_t type);
   /// \brief The feature word shade group \p group is specialised for: the scene's, with only

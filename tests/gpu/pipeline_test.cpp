@@ -329,6 +329,27 @@ TEST(Wavefront, ShadeGroupsGetTheirOwnTextureFamilies) {
   }, "bump.pbrt");
 }
 
+// On lavapipe with Mesa's shader cache on, a scene with two shade groups has group 0's
+// pipeline compiled on a second device as well (CompileDevice) when basalt's cache does not
+// have its module: bump.pbrt renders the same image, bit for bit, with and without it, and
+// the second device's work passes the validation layer.
+TEST(Wavefront, SecondDeviceCompileKeepsTheImage) {
+  SceneTables t = tables_from_file(source_path("scenes/bump.pbrt"), 48, 32);
+  const char* old_cache = std::getenv("BASALT_CACHE_DIR");
+  const std::string saved = old_cache ? old_cache : "";
+  setenv("BASALT_CACHE_DIR", "off", 1);  // a cache hit would skip the second device
+  const bool expected = gpu_context().info().is_cpu && vkx::CompileDevice::shader_cache_on();
+  expect_same_image_both_ways(t, vkx::GpuRenderer::parallel_compile,
+                              [expected](vkx::GpuRenderer& gpu, bool on) {
+    ASSERT_EQ(gpu.variant, "wavefront");
+    EXPECT_EQ(gpu.second_device_compiles, on && expected ? 1u : 0u);
+  }, "bump.pbrt");
+  if (old_cache)
+    setenv("BASALT_CACHE_DIR", saved.c_str(), 1);
+  else
+    unsetenv("BASALT_CACHE_DIR");
+}
+
 // A scene with any material kind other than diffuse never gets the lean shader: not by
 // default (it gets the wavefront stages), and asking for it is an error.
 TEST(LeanVariant, NeverForOtherMaterials) {
