@@ -347,7 +347,7 @@ int main(int argc, char** argv) {
        "wavefront for scenes with materials beyond diffuse, Oren-Nayar and measured, else the "
        "megakernel), megakernel (one shader for the "
        "whole path), wavefront (an extend stage and shading pipelines by material type; the "
-       "same image up to the order of its sums), or all (the megakernel with every feature "
+       "same image), or all (the megakernel with every feature "
        "compiled in; same image, for timing)",
        {"specialised", "megakernel", "wavefront", "all"}},
       {"--layered-mis", &opt.layered_mis,

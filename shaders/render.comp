@@ -1,7 +1,7 @@
 #version 460
 // Path-tracing pass: one invocation renders samples [sample_start, sample_start +
-// sample_count) of one pixel and adds (sum L, count) to accum (docs/path-spec.md sections 7
-// and 9), and counts the rays it traced in counters[0].
+// sample_count) of one pixel and adds each sample's (L, 1) to accum in turn
+// (docs/path-spec.md sections 7 and 9), and counts the rays it traced in counters[0].
 //
 // Pixel order (docs/path-spec.md section 9, slot_pixel in camera.glsl): invocation slot
 // i = pixel_offset + global id covers lane i % 64 of an 8x8 pixel tile, the tiles shuffled
@@ -28,7 +28,10 @@ void main() {
                   px, py))
     return;
   uint width = globals.image.x;
-  vec4 sum = vec4(0.0);
+  // The pixel's sums go on from what earlier passes left, one sample at a time: the same
+  // additions in the same order however the host sizes its passes (it sizes them by the time
+  // the last one took), so the image does not depend on the machine's speed.
+  vec4 sum = accum[py * width + px];
   uint rays = 0u, nonfinite = 0u;
   // The loop's end is tested at the end of a pass: lavapipe runs a pass that any lane enters
   // in full, and a for loop's closing test cost a whole path (docs/performance.md).
@@ -44,7 +47,7 @@ void main() {
     sum += vec4(L, 1.0);
     if (++s >= pc.sample_start + pc.sample_count) break;
   }
-  accum[py * width + px] += sum;
+  accum[py * width + px] = sum;
   atomicAdd(counters[0], rays);
   if (nonfinite != 0u) atomicAdd(counters[1], nonfinite);
 }

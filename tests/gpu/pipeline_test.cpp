@@ -152,9 +152,9 @@ TEST(LeanVariant, SameImageAsFullForTexturedDiffuseScenes) {
 
 // The wavefront stages (shaders/wavefront.comp) run the megakernel's own path code
 // (integrator.glsl: path_start, path_bounce, path_escape) cut at the intersection, a shade
-// pipeline per material type: sample by sample they give the megakernel's image bit for bit
-// (both rendered one sample per render() call, so that the megakernel's per-pass sums and the
-// wavefront's per-sample sums add alike) and count the same rays. The scene routes every kind
+// pipeline per material type: they give the megakernel's image bit for bit (both add a pixel's
+// samples one at a time; the megakernel renders both samples in one pass) and count the same
+// rays. The scene routes every kind
 // of path the stages handle: four material types, a stochastic mix (its pipeline has all the
 // scene's materials), an interface (passed through without a bounce), an area light, misses to
 // an infinite light, ends by depth and by roulette; in waves of 1000 slots, so that a sample of
@@ -191,7 +191,7 @@ TEST(Wavefront, SameImageAsTheMegakernel) {
                          k == 0 ? vkx::ShaderVariant::full : vkx::ShaderVariant::wavefront);
     vkx::GpuRenderer::wavefront_capacity = 262144;
     EXPECT_EQ(gpu.variant, k == 0 ? "full" : "wavefront");
-    for (std::uint32_t s = 0; s < 2; ++s) gpu.render(s, 1);
+    gpu.render(0, 2);  // the megakernel: both samples in one pass (1,536 slots, 4,096 units)
     images[k] = gpu.accum();
     rays[k] = gpu.rays();
     EXPECT_EQ(gpu.nonfinite_samples(), 0u);
@@ -208,6 +208,40 @@ TEST(Wavefront, SameImageAsTheMegakernel) {
   ASSERT_GT(mean(cpu), 0.0);
   // A mix's choice may flip with the last bit (conformance_test.cpp): at most 3 pixels.
   EXPECT_GE(agreeing_fraction(cpu, gpu, 1e-3f), 1.0 - 3.0 / (48 * 32));
+}
+
+// The megakernel's passes are sized by the time the last one took, so their sizes vary from run
+// to run; each pixel adds its samples one at a time in sample order (render.comp starts from its
+// accum value), so the image is the same bits however the passes fall. spheres-lights at 48 x 32
+// (1,536 slots), 8 samples; the first pass is 4,096 units (2 samples of every slot), then: one
+// pass of the other 6, passes of one tile (64 slots) and one sample, or two calls of 3 and 5.
+TEST(Megakernel, PassSizesDoNotChangeTheImage) {
+  const SceneTables t = tables_from_file(source_path("scenes/spheres-lights.pbrt"), 48, 32);
+  auto& ctx = gpu_context();
+  const std::size_t before = ctx.validation_errors();
+  std::vector<glm::vec4> images[3];
+  for (int k = 0; k < 3; ++k) {
+    vkx::GpuRenderer gpu(ctx, t);
+    ASSERT_NE(gpu.variant, "wavefront");
+    if (k == 0) gpu.render(0, 8, {}, 1e9);
+    if (k == 1) gpu.render(0, 8, {}, 1e-9);
+    if (k == 2) {
+      gpu.render(0, 3);
+      gpu.render(3, 5);
+    }
+    images[k] = gpu.accum();
+    EXPECT_EQ(gpu.nonfinite_samples(), 0u);
+  }
+  EXPECT_EQ(ctx.validation_errors(), before);
+  for (int k = 1; k < 3; ++k) {
+    ASSERT_EQ(images[0].size(), images[k].size());
+    EXPECT_EQ(
+        std::memcmp(images[0].data(), images[k].data(), images[0].size() * sizeof(glm::vec4)), 0)
+        << k;
+  }
+  double weight = 0.0;  // every pixel got its 8 samples
+  for (const glm::vec4& v : images[0]) weight += v.w;
+  EXPECT_EQ(weight, 8.0 * 48 * 32);
 }
 
 // A wave runs (sample, slot) pairs in order, so a small image's wave holds several samples
