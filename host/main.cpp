@@ -15,6 +15,7 @@
 #include "basalt_version.h"  // generated at build time (cmake/version.cmake)
 #include "cpu/render.h"
 #include "image/image_io.h"
+#include "scene/materials.h"
 #include "scene/samplers.h"
 #include "scene/scene.h"
 #include "scene/tables.h"
@@ -222,6 +223,10 @@ int run(const Options& opt) {
     st.seconds_render = since(t0);
     st.rays = gpu.rays();
     st.nonfinite_samples = gpu.nonfinite_samples();
+    if (gpu.solo_type < basalt::gpu::MATERIAL_TYPE_COUNT) {
+      st.solo_pipeline = basalt::feature_names(basalt::material_feature(gpu.solo_type)).at(0);
+      st.solo_dispatches = gpu.solo_dispatches;
+    }
     accum = gpu.accum();
     validation_errors = ctx->validation_errors();
   }

@@ -53,6 +53,9 @@ std::string to_json(const RenderStats& st) {
     o << "  \"seconds_specialise\": " << number(st.seconds_specialise) << ",\n";
   if (st.second_device_compiles > 0)
     o << "  \"second_device_compiles\": " << st.second_device_compiles << ",\n";
+  if (!st.solo_pipeline.empty())
+    o << "  \"solo_pipeline\": " << quote(st.solo_pipeline) << ",\n"
+      << "  \"solo_dispatches\": " << st.solo_dispatches << ",\n";
   if (!st.shader_variant.empty())
     o << "  \"shader_variant\": " << quote(st.shader_variant) << ",\n"
       << "  \"shader_plain\": " << (st.shader_plain ? "true" : "false") << ",\n";

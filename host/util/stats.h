@@ -17,6 +17,10 @@ struct RenderStats {
          seconds_render = 0;
   double seconds_specialise = 0;     // of seconds_pipeline: SPIR-V specialisation (vk/specialise.h)
   unsigned second_device_compiles = 0;  // pipelines compiled on a second device (CompileDevice)
+  // The wavefront's solo pipeline (GpuRenderer::solo_pipeline): its material (a feature name,
+  // "material_diffuse"), empty if none, and the shade dispatches it ran.
+  std::string solo_pipeline;
+  std::uint64_t solo_dispatches = 0;
   double seconds_to_first_pass = 0;  // from the start of the render command to the first pass done
   double samples_per_second = 0, rays_per_second = 0;
   std::uint64_t rays = 0, nonfinite_samples = 0, peak_rss_bytes = 0, triangles = 0, spheres = 0, lights = 0;

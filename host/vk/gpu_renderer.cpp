@@ -162,7 +162,7 @@ std::uint32_t wf_group(std::uint32_t type) {
 }
 constexpr std::uint32_t kWfGroups = 3;
 // The texture families a shade group is specialised for by its materials' textures alone
-// (GpuRenderer::wf_shade_features): of the first feature word and of the second.
+// (GpuRenderer::shade_words): of the first feature word and of the second.
 constexpr std::uint32_t kTexFamilies = gpu::FEATURE_TEX_NOISE | gpu::FEATURE_TEX_IMAGE;
 constexpr std::uint32_t kTexFamilies2 =
     gpu::FEATURE2_TEX_EWA | gpu::FEATURE2_TEX_CHECKER_AA | gpu::FEATURE2_TEX_PROCEDURAL |
@@ -353,16 +353,21 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     const std::uint32_t layered = material_feature(gpu::MATERIAL_COATED_DIFFUSE) |
                                   material_feature(gpu::MATERIAL_COATED_CONDUCTOR);
     wf_mix_group_ = (wf_mix_bits_ & layered) == 0 ? 0u : wf_group(gpu::MATERIAL_MIX);
-    // The texture families of each group's materials (the mixes' group: of what they reach):
-    // a shade pipeline is specialised without the other groups' (wf_shade_features).
+    // The texture families of each group's materials (the mixes' group: of what they reach)
+    // and of each type's: a shade pipeline is specialised without the others' (shade_words).
     wf_tex_bits_.assign(kWfGroups, glm::uvec2(0u));
+    wf_type_tex_bits_.assign(gpu::MATERIAL_TYPE_COUNT, glm::uvec2(0u));
     for (std::uint32_t m = 0; m < t.materials.size(); ++m) {
       const glm::uvec2 bits = material_texture_features(t, t.materials[m]);
       const std::uint32_t type = t.materials[m].type;
-      if (type < gpu::MATERIAL_TYPE_COUNT) wf_tex_bits_[wf_group_of(type)] |= bits;
+      if (type < gpu::MATERIAL_TYPE_COUNT) {
+        wf_tex_bits_[wf_group_of(type)] |= bits;
+        wf_type_tex_bits_[type] |= bits;
+      }
       if (reached[m]) wf_tex_bits_[wf_mix_group_] |= bits;
     }
     wf_shade_.resize(kWfGroups);
+    wf_group_words_size_.assign(kWfGroups, 0);
     // The stages the scene needs: extend, and the shade group of each material type present
     // (and MATERIAL_NONE's, for shapes without a material).
     std::vector<bool> needed(kWfGroups, false);
@@ -409,7 +414,11 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
                                              features2, wf_bindings_, wf_path_view_)
                              : make_pipeline(wavefront_extend_spv, sizeof(wavefront_extend_spv),
                                              features, features2, wf_bindings_, wf_path_view_))
-                    : make_wf_shade(g, on_second(i) ? compiler.get() : nullptr));
+                    : make_wf_shade(wf_group_words(g), on_second(i) ? compiler.get() : nullptr,
+                                    [this, g](std::size_t words) {
+                                      wf_group_words_size_[g] = words;  // this worker's own
+                                      return true;
+                                    }));
           } catch (...) {
             promised[i].set_exception(std::current_exception());
           }
@@ -461,7 +470,14 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
 }
 
 GpuRenderer::~GpuRenderer() {
+  if (wf_solo_made_.valid()) {
+    try {
+      wf_solo_ = wf_solo_made_.get();
+    } catch (...) {  // nothing was made
+    }
+  }
   ctx_.device.waitIdle();
+  destroy_pipeline(wf_solo_);
   destroy_pipeline(render_);
   destroy_stage(probe_);
   destroy_stage(trace_);
@@ -479,7 +495,8 @@ GpuRenderer::~GpuRenderer() {
 GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std::size_t bytes,
                                                  std::uint32_t features, std::uint32_t features2,
                                                  const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings,
-                                                 vk::BufferView wf_paths, CompileDevice* compiler) {
+                                                 vk::BufferView wf_paths, CompileDevice* compiler,
+                                                 const std::function<bool(std::size_t)>& accept) {
   auto& dev = ctx_.device;
   Pipeline p;
   std::vector<vk::DescriptorSetLayoutBinding> layout_bindings;
@@ -529,6 +546,11 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
     spirv = specialised.data();
     bytes = specialised.size() * sizeof(std::uint32_t);
   }
+  if (accept && !accept(bytes / sizeof(std::uint32_t))) {
+    dev.destroyPipelineLayout(p.layout);
+    dev.destroyDescriptorSetLayout(p.set_layout);
+    return Pipeline{};
+  }
   std::vector<vk::SpecializationMapEntry> entries;
   for (std::uint32_t k = 0; k < words.size(); ++k)
     entries.push_back(vk::SpecializationMapEntry{
@@ -563,7 +585,8 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
     std::vector<std::uint8_t> push(sizeof pc);
     std::memcpy(push.data(), &pc, sizeof pc);
     compiler->compile(spirv, bytes, spec, layout_bindings, texels, push, create);
-    ++second_device_compiles;  // one worker makes the one pipeline of the second device
+    const std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++second_device_compiles;
   } else {
     create();
   }
@@ -627,42 +650,93 @@ std::uint32_t GpuRenderer::wf_group_of(std::uint32_t type) const {
   return wf_group(type) == wf_group(gpu::MATERIAL_MIX) ? wf_mix_group_ : wf_group(type);
 }
 
-std::uint32_t GpuRenderer::wf_shade_features(std::uint32_t group) const {
+std::pair<std::uint32_t, std::uint32_t> GpuRenderer::shade_words(std::uint32_t materials,
+                                                                 glm::uvec2 tex) const {
+  // Of the texture families, those of \p tex: the pipeline evaluates no other material's
+  // textures. FEATURE_TEXTURES itself stays the scene's (every bounce carries the ray
+  // differentials that the next hit's footprint needs, whatever its pipeline).
+  const std::uint32_t families = group_texture_features ? kTexFamilies : 0u;
+  const std::uint32_t families2 = group_texture_features ? kTexFamilies2 : 0u;
+  return {(wf_features_ & ~material_bits() & ~families) | (wf_features_ & materials) |
+              (wf_features_ & families & tex.x),
+          (wf_features2_ & ~families2) | (wf_features2_ & families2 & tex.y)};
+}
+
+std::pair<std::uint32_t, std::uint32_t> GpuRenderer::wf_group_words(std::uint32_t group) const {
   // The scene's material bits of the group's types; for the mixes' group, of the types they
   // reach as well.
   std::uint32_t bits = group == wf_mix_group_ ? wf_mix_bits_ : 0u;
   if (group != wf_group(gpu::MATERIAL_MIX))
     for (std::uint32_t t = 0; t < gpu::MATERIAL_TYPE_COUNT; ++t)
       if (wf_group(t) == group) bits |= material_feature(t);
-  // Of the texture families, those of the group's materials: the group's pipeline evaluates
-  // no other material's textures. FEATURE_TEXTURES itself stays the scene's (every bounce
-  // carries the ray differentials that the next hit's footprint needs, whatever its group).
-  const std::uint32_t families = group_texture_features ? kTexFamilies : 0u;
-  const std::uint32_t tex = wf_tex_bits_.empty() ? ~0u : wf_tex_bits_[group].x;
-  return (wf_features_ & ~material_bits() & ~families) | (wf_features_ & bits) |
-         (wf_features_ & families & tex);
+  return shade_words(bits, wf_tex_bits_.empty() ? glm::uvec2(~0u) : wf_tex_bits_[group]);
 }
 
-std::uint32_t GpuRenderer::wf_shade_features2(std::uint32_t group) const {
-  const std::uint32_t families = group_texture_features ? kTexFamilies2 : 0u;
-  const std::uint32_t tex = wf_tex_bits_.empty() ? ~0u : wf_tex_bits_[group].y;
-  return (wf_features2_ & ~families) | (wf_features2_ & families & tex);
-}
-
-GpuRenderer::Pipeline GpuRenderer::make_wf_shade(std::uint32_t group, CompileDevice* compiler) {
+GpuRenderer::Pipeline GpuRenderer::make_wf_shade(std::pair<std::uint32_t, std::uint32_t> words,
+                                                 CompileDevice* compiler,
+                                                 const std::function<bool(std::size_t)>& accept) {
   return plain ? make_pipeline(wavefront_shade_plain_spv, sizeof(wavefront_shade_plain_spv),
-                               wf_shade_features(group), wf_shade_features2(group), wf_bindings_,
-                               wf_path_view_, compiler)
-               : make_pipeline(wavefront_shade_spv, sizeof(wavefront_shade_spv),
-                               wf_shade_features(group), wf_shade_features2(group), wf_bindings_,
-                               wf_path_view_, compiler);
+                               words.first, words.second, wf_bindings_, wf_path_view_, compiler,
+                               accept)
+               : make_pipeline(wavefront_shade_spv, sizeof(wavefront_shade_spv), words.first,
+                               words.second, wf_bindings_, wf_path_view_, compiler, accept);
+}
+
+void GpuRenderer::wf_choose_solo() {
+  wf_solo_chosen_ = true;
+  // On lavapipe only: a GPU branches over the other types' code at no cost. Without Mesa's
+  // shader cache the main device's queue would compile the pipeline at its first dispatch and
+  // stall the render for it (on a cold cache the second device compiles it: CompileDevice).
+  if (solo_pipeline == Solo::off || !ctx_.info().is_cpu || !CompileDevice::shader_cache_on())
+    return;
+  const std::uint32_t* hits = wf_first_hits_;
+  std::uint32_t busiest = 0;
+  for (std::uint32_t type = 1; type < gpu::MATERIAL_TYPE_COUNT; ++type)
+    if (hits[type] > hits[busiest]) busiest = type;
+  // Not a type without material code of its own (none, interface), not the mixes (their
+  // pipeline holds what they reach), not one alone in its group's pipeline already.
+  const std::uint32_t own = material_feature(busiest);
+  if (hits[busiest] == 0 || own == 0 || wf_group(busiest) == wf_group(gpu::MATERIAL_MIX) ||
+      (wf_group_words(wf_group_of(busiest)).first & material_bits()) == (wf_features_ & own))
+    return;
+  solo_type = busiest;
+  solo_words = shade_words(own, wf_type_tex_bits_[busiest]);
+  // Made only if its specialised module is at most kSoloMaxShare of its group's: where the
+  // group's other types add little code (textured scenes, whose diffuse materials hold most
+  // of the texture code: 0.78-0.88), making it cost more than it saved (docs/performance.md).
+  const double most = kSoloMaxShare * double(wf_group_words_size_[wf_group_of(busiest)]);
+  wf_solo_made_ = std::async(std::launch::async, [this, words = solo_words, most] {
+    CompileDevice compiler(ctx_);  // used on a cold cache only (make_pipeline)
+    return make_wf_shade(words, &compiler,
+                         [most](std::size_t size) { return double(size) <= most; });
+  });
+  if (solo_pipeline == Solo::at_once) wf_solo_made_.wait();
+}
+
+GpuRenderer::Pipeline* GpuRenderer::wf_solo_ready() {
+  if (wf_solo_.pipeline) return &wf_solo_;
+  if (!wf_solo_made_.valid() ||
+      wf_solo_made_.wait_for(std::chrono::seconds(0)) != std::future_status::ready)
+    return nullptr;
+  wf_solo_ = wf_solo_made_.get();
+  if (!wf_solo_.pipeline) {  // not made: too little code of other types to leave out
+    solo_type = gpu::MATERIAL_TYPE_COUNT;
+    solo_words = {0u, 0u};
+    return nullptr;
+  }
+  // lavapipe compiles at first dispatch (see the constructor's empty pass): from Mesa's cache.
+  dispatch(wf_solo_, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
+  return &wf_solo_;
 }
 
 GpuRenderer::Pipeline& GpuRenderer::wf_shade(std::uint32_t type) {
   const std::uint32_t group = wf_group_of(type);
   Pipeline& p = wf_shade_.at(group);
   if (p.pipeline) return p;
-  p = make_wf_shade(group);
+  p = make_wf_shade(wf_group_words(group), nullptr, [this, group](std::size_t words) {
+    wf_group_words_size_[group] = words;
+    return true;
+  });
   // lavapipe compiles at first dispatch (see the constructor's empty pass).
   dispatch(p, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
   return p;
@@ -707,15 +781,23 @@ void GpuRenderer::wf_wave(std::uint32_t s, std::uint32_t slot0, std::uint32_t pa
       lists[gpu::WF_LIST_QUEUE + type] = 0;
       if (queued[type]) wf_shade(type);
     }
+    if (!wf_first_hits_known_) {  // the camera rays of the first wave
+      std::copy(queued, queued + gpu::MATERIAL_TYPE_COUNT, wf_first_hits_);
+      wf_first_hits_known_ = true;
+      if (solo_pipeline == Solo::at_once) wf_choose_solo();
+    }
+    Pipeline* solo =
+        solo_type < gpu::MATERIAL_TYPE_COUNT && queued[solo_type] ? wf_solo_ready() : nullptr;
     ctx_.submit_and_wait([&](vk::CommandBuffer cmd) {
       barrier(cmd);
       for (std::uint32_t type = 0; type < gpu::MATERIAL_TYPE_COUNT; ++type)
         if (queued[type])
-          run(wf_shade(type),
+          run(type == solo_type && solo ? *solo : wf_shade(type),
               gpu::PassConstants{s, it, slot0, queued[type], stride_, slots_,
                                  (gpu::WF_LIST_QUEUE + type) | (out_list << 16), wf_capacity_},
               queued[type], cmd);
     });
+    if (solo) ++solo_dispatches;
     active = lists[out_list];
   }
   if (active)
@@ -755,11 +837,20 @@ void GpuRenderer::render(std::uint32_t sample_start, std::uint32_t count,
     while (s < end) {
       const std::uint64_t left = std::uint64_t(end - s) * slots_ - slot0;
       const std::uint32_t n = std::uint32_t(std::min<std::uint64_t>(wf_capacity_, left));
+      const auto t_wave = Clock::now();
       wf_wave(s, slot0, n);
       const std::uint64_t next = std::uint64_t(slot0) + n;
       s += std::uint32_t(next / slots_);
       slot0 = std::uint32_t(next % slots_);
       done += n;
+      // The solo pipeline once this renderer will have rendered kSoloAfterSeconds (the waves
+      // so far and this call's rest at their rate): making it costs lavapipe 0.07-0.12 s of
+      // a core from a warm cache, and it takes 7-14% off the renders it helps.
+      wf_rendered_seconds_ += since(t_wave);
+      wf_rendered_paths_ += n;
+      if (!wf_solo_chosen_ &&
+          wf_rendered_seconds_ * (1.0 + (work - done) / wf_rendered_paths_) >= kSoloAfterSeconds)
+        wf_choose_solo();
       if (progress) progress(done / work);
     }
     return;

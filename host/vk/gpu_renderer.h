@@ -3,6 +3,7 @@
 #pragma once
 #include <cstdint>
 #include <functional>
+#include <future>
 #include <mutex>
 #include <string>
 #include <utility>
@@ -108,14 +109,33 @@ class GpuRenderer {
   /// only, with Mesa's shader cache on; CompileDevice): tests and benchmarks turn it off to
   /// compare.
   static inline bool parallel_compile = true;
-  /// Pipelines compiled on the second device (CompileDevice) at construction: 0 or 1.
+  /// Pipelines compiled on a second device (CompileDevice): at construction 0 or 1, and later
+  /// the solo pipeline's (solo_pipeline) on a cold cache.
   std::uint32_t second_device_compiles = 0;
   /// \brief The feature words the shade pipeline of MATERIAL_* \p type is specialised for
   ///        (wavefront only: the scene's, with the material bits and the texture families of
   ///        its group).
   std::pair<std::uint32_t, std::uint32_t> shade_feature_words(std::uint32_t type) const {
-    return {wf_shade_features(wf_group_of(type)), wf_shade_features2(wf_group_of(type))};
+    return wf_group_words(wf_group_of(type));
   }
+  /// The wavefront's solo pipeline (lavapipe only, with Mesa's shader cache on): the
+  /// material type with the most hits among the first wave's camera rays, when its shade
+  /// group's pipeline holds other types' code too, gets a pipeline specialised for it alone
+  /// (lavapipe runs every type's code of a pipeline for every path; docs/performance.md).
+  /// `background` (the default) makes it on a thread once the renderer will have rendered
+  /// 0.5 s (its waves so far and the current call's rest), while the render goes on, and
+  /// shades the type's queue with it once it is ready; `at_once` makes it at the first wave
+  /// and waits for it (tests); `off` makes none.
+  /// The image is the same bits every way: specialisation removes code, never changes a result.
+  enum class Solo { off, background, at_once };
+  static inline Solo solo_pipeline = Solo::background;
+  /// MATERIAL_* type of the solo pipeline, or MATERIAL_TYPE_COUNT while there is none, and the
+  /// feature words it is specialised for (the scene's, with that type's material bit and
+  /// texture families only).
+  std::uint32_t solo_type = gpu::MATERIAL_TYPE_COUNT;
+  std::pair<std::uint32_t, std::uint32_t> solo_words{0u, 0u};
+  /// Shade dispatches the solo pipeline ran.
+  std::uint64_t solo_dispatches = 0;
   /// Paths of a wavefront wave (at most): this many (sample, pixel slot) pairs in order.
   static inline std::uint32_t wavefront_capacity = 262144;
   /// Samples of a wave at most (a tiny image's capacity is its slots times this).
@@ -129,10 +149,15 @@ class GpuRenderer {
     vk::DescriptorPool pool;
     vk::DescriptorSet set;
   };
+  /// \brief A compute pipeline of \p spirv specialised for \p features, \p features2 (the
+  ///        wavefront's stages with \p wf_paths bound; compiled on \p compiler as well on a
+  ///        cold cache). \p accept, if given, is called with the specialised module's size in
+  ///        words: false makes nothing and returns an empty Pipeline.
   Pipeline make_pipeline(const std::uint32_t* spirv, std::size_t bytes, std::uint32_t features,
                          std::uint32_t features2,
                          const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings,
-                         vk::BufferView wf_paths = {}, CompileDevice* compiler = nullptr);
+                         vk::BufferView wf_paths = {}, CompileDevice* compiler = nullptr,
+                         const std::function<bool(std::size_t)>& accept = {});
   void destroy_pipeline(Pipeline& p);
   void dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint32_t invocations);
 
@@ -180,18 +205,40 @@ class GpuRenderer {
   /// \brief The shade group whose pipeline shades MATERIAL_* \p type (wf_group, with the
   /// mixes in wf_mix_group_).
   std::uint32_t wf_group_of(std::uint32_t type) const;
-  /// \brief Makes the shade pipeline of group \p group (the plain build when \c plain).
-  Pipeline make_wf_shade(std::uint32_t group, CompileDevice* compiler = nullptr);
+  /// \brief Makes a shade pipeline specialised for the feature words \p words (the plain
+  ///        build when \c plain).
+  Pipeline make_wf_shade(std::pair<std::uint32_t, std::uint32_t> words,
+                         CompileDevice* compiler = nullptr,
+                         const std::function<bool(std::size_t)>& accept = {});
+  std::vector<std::size_t> wf_group_words_size_;  // per group: its specialised module's words
   /// \brief The shade pipeline of MATERIAL_* \p type, built if it is not yet.
   Pipeline& wf_shade(std::uint32_t type);
-  /// \brief The feature word shade group \p group is specialised for: the scene's, with only
-  ///        the material bits of the group's types.
-  std::uint32_t wf_shade_features(std::uint32_t group) const;
-  /// \brief Its second word: the scene's, with only the texture families of the group's
-  ///        materials.
-  std::uint32_t wf_shade_features2(std::uint32_t group) const;
+  /// \brief The feature words shade group \p group is specialised for: the scene's, with only
+  ///        the material bits of the group's types and the texture families of its materials.
+  std::pair<std::uint32_t, std::uint32_t> wf_group_words(std::uint32_t group) const;
   std::vector<glm::uvec2> wf_tex_bits_;  // per group: material_texture_features of its materials
-  std::mutex stats_mutex_;  // seconds_specialise, added to by make_pipeline on several threads
+  std::vector<glm::uvec2> wf_type_tex_bits_;  // the same per MATERIAL_* type
+  /// \brief The feature words of a shade pipeline for the material bits \p materials and the
+  ///        texture families \p tex: the scene's words with only those of each.
+  std::pair<std::uint32_t, std::uint32_t> shade_words(std::uint32_t materials,
+                                                      glm::uvec2 tex) const;
+  // The solo pipeline (solo_pipeline): being made on a thread, then made.
+  std::future<Pipeline> wf_solo_made_;
+  Pipeline wf_solo_{};
+  bool wf_solo_chosen_ = false;
+  std::uint32_t wf_first_hits_[gpu::MATERIAL_TYPE_COUNT] = {};  // the first wave's camera
+  bool wf_first_hits_known_ = false;                            // rays' hits by type
+  double wf_rendered_seconds_ = 0.0, wf_rendered_paths_ = 0.0;  // the waves so far
+  static constexpr double kSoloAfterSeconds = 0.5;
+  static constexpr double kSoloMaxShare = 0.75;  // of its group's module, or no solo pipeline
+  /// \brief Chooses the solo type from wf_first_hits_ and starts making its pipeline
+  ///        (solo_pipeline).
+  void wf_choose_solo();
+  /// \brief The solo pipeline if it is made (compiled by an empty pass the first time), else
+  ///        nullptr.
+  Pipeline* wf_solo_ready();
+  std::mutex stats_mutex_;  // seconds_specialise and second_device_compiles, added to by
+                            // make_pipeline on several threads
   /// \brief Runs \p paths (sample, slot) pairs in order from slot \p slot0 of sample \p s
   /// through the wavefront stages.
   void wf_wave(std::uint32_t s, std::uint32_t slot0, std::uint32_t paths);
