@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "common/scratch_dir.h"
 #include "cpu/bsdf.h"
 #include "cpu/bump.h"
 #include "cpu/camera.h"
@@ -103,15 +104,7 @@ bool camera_hit(const SceneTables& t, std::uint32_t x, std::uint32_t y, std::uin
 }
 
 /// A per-process scratch directory for image files.
-fs::path temp_dir() {
-  static const fs::path d = [] {
-    fs::path p = fs::temp_directory_path() / ("basalt_bump_test_" + std::to_string(::getpid()));
-    fs::remove_all(p);
-    fs::create_directories(p);
-    return p;
-  }();
-  return d;
-}
+fs::path temp_dir() { return basalt::test::scratch_dir("bump"); }
 
 /// Writes a w x h EXR of constant linear rgb \p c into temp_dir(); returns its file name.
 std::string write_constant_exr(const std::string& name, glm::vec3 c, int w = 4, int h = 4) {

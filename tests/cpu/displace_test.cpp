@@ -19,6 +19,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "common/scratch_dir.h"
 #include "common/test_util.h"
 #include "cpu/intersect.h"
 #include "scene/displace.h"
@@ -32,8 +33,7 @@ namespace fs = std::filesystem;
 
 /// Writes an ascii PLY (normals and uv written when not empty) and returns its path.
 std::string write_ply(const std::string& name, const TriangleMesh& m) {
-  const fs::path dir = fs::path(::testing::TempDir()) / "basalt_displace";
-  fs::create_directories(dir);
+  const fs::path dir = basalt::test::scratch_dir("displace");
   const fs::path path = dir / name;
   std::ofstream out(path);
   out << "ply\nformat ascii 1.0\nelement vertex " << m.P.size()

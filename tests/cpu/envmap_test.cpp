@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "common/scratch_dir.h"
 #include "common/bsdf_check.h"
 #include "common/test_util.h"
 #include "cpu/camera.h"
@@ -31,13 +32,8 @@ namespace gpu = basalt::gpu;
 
 namespace {
 
-// A fresh directory under the test temp dir.
-fs::path temp_dir(const std::string& name) {
-  fs::path d = fs::path(::testing::TempDir()) / ("basalt_envmap_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+// A fresh empty directory of this process (removed at exit).
+fs::path temp_dir(const std::string& name) { return basalt::test::fresh_scratch_dir("envmap-" + name); }
 
 // Writes a w x h image whose pixel (x, y) (y from the top) is f(x, y).
 template <typename F>

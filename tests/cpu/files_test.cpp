@@ -10,19 +10,15 @@
 #include <iterator>
 #include <thread>
 
+#include "common/scratch_dir.h"
 #include "util/files.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-/// A fresh empty directory under the test temp dir.
-fs::path temp_dir(const std::string& name) {
-  fs::path d = fs::path(::testing::TempDir()) / ("basalt_files_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+/// A fresh empty directory of this process (removed at exit).
+fs::path temp_dir(const std::string& name) { return basalt::test::fresh_scratch_dir("files-" + name); }
 
 /// The whole content of a file.
 std::string slurp(const fs::path& p) {

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "common/scratch_dir.h"
 #include "cpu/mipmap.h"
 #include "cpu/texture.h"
 #include "scene/images.h"
@@ -32,15 +33,7 @@ using namespace basalt;
 
 namespace {
 
-fs::path temp_dir() {
-  static fs::path d = [] {
-    fs::path p = fs::temp_directory_path() / ("basalt_image_texture_test_" + std::to_string(::getpid()));
-    fs::remove_all(p);
-    fs::create_directories(p);
-    return p;
-  }();
-  return d;
-}
+fs::path temp_dir() { return basalt::test::scratch_dir("image-texture"); }
 
 // Writes a PNG of the given colour type and depth; `v` holds the samples (8 or 16 bit).
 void write_png(const fs::path& path, int w, int h, int color_type, int depth,

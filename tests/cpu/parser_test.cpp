@@ -9,6 +9,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <string>
 
+#include "common/scratch_dir.h"
 #include "scene/materials.h"
 #include "scene/merl.h"
 #include "scene/scene.h"
@@ -39,13 +40,8 @@ std::string error_of(const std::string& text, const std::string& base_dir = ".")
   return "";
 }
 
-// A fresh empty directory under the test temp dir.
-fs::path temp_dir(const std::string& name) {
-  fs::path d = fs::path(::testing::TempDir()) / ("basalt_parser_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+// A fresh empty directory of this process (removed at exit).
+fs::path temp_dir(const std::string& name) { return basalt::test::fresh_scratch_dir("parser-" + name); }
 
 // Writes text to path.
 void write_file(const fs::path& path, const std::string& text) {

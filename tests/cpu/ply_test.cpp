@@ -1,4 +1,5 @@
 // PLY reader: ascii and binary bodies, polygons, triangle strips, truncation, and the Igea model.
+#include "common/scratch_dir.h"
 #include "scene/ply.h"
 
 #include <gtest/gtest.h>
@@ -23,9 +24,7 @@ namespace {
 
 // This process's directory under the test temp dir: ctest runs tests in parallel processes,
 // and two of them writing the same file name in one directory read each other's bytes.
-fs::path ply_dir() {
-  return fs::path(::testing::TempDir()) / ("basalt_ply_" + std::to_string(::getpid()));
-}
+fs::path ply_dir() { return basalt::test::scratch_dir("ply"); }
 
 // Writes bytes to a fresh file under ply_dir() and returns its path.
 std::string write_temp(const std::string& name, const std::string& bytes) {

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "common/scratch_dir.h"
 #include "common/noise_check.h"
 #include "common/test_util.h"
 #include "cpu/noise.h"
@@ -32,21 +33,7 @@ constexpr double kPiD = 3.14159265358979323846;
 
 /// This process's scratch folder, removed when the process exits (one per pid, so that the
 /// parallel ctest processes of this binary do not share it).
-fs::path temp_dir() {
-  struct Dir {
-    fs::path p = fs::temp_directory_path() / ("basalt_shirley_test_" + std::to_string(::getpid()));
-    Dir() {
-      fs::remove_all(p);
-      fs::create_directories(p);
-    }
-    ~Dir() {
-      std::error_code ec;
-      fs::remove_all(p, ec);
-    }
-  };
-  static const Dir d;
-  return d.p;
-}
+fs::path temp_dir() { return basalt::test::scratch_dir("shirley"); }
 
 /// Tables of kTexturedHead + \p body (relative files resolve in temp_dir()).
 SceneTables textured(const std::string& body) { return textured_scene(body, temp_dir().string()); }

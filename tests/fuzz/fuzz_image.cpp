@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <cstddef>
+#include <cstdio>
 #include <cstdint>
 #include <fstream>
 #include <string>
@@ -27,5 +28,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       basalt::generate_pyramid(img, data[0] & 16 ? basalt::gpu::WRAP_CLAMP : basalt::gpu::WRAP_REPEAT);
   } catch (const std::exception&) {
   }
+  std::remove(path.c_str());  // nothing left behind in /tmp
   return 0;
 }

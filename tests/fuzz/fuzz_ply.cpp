@@ -2,6 +2,7 @@
 #include <unistd.h>
 
 #include <cstddef>
+#include <cstdio>
 #include <cstdint>
 #include <fstream>
 #include <string>
@@ -17,5 +18,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     basalt::load_ply(path, nullptr, std::uint64_t(1) << 27);
   } catch (const std::exception&) {
   }
+  std::remove(path.c_str());  // nothing left behind in /tmp
   return 0;
 }
