@@ -196,7 +196,11 @@ float bvh_child_test(uvec4 w0, uvec4 qlo, uvec4 qhi, uint child, uint c, vec3 o,
 // the others pushed far to near. Closest hit: the smallest t, on equal t the smaller prim
 // reference, independent of traversal order (docs/path-spec.md section 3): every primitive is
 // tested against the ray's own tmax and compared with the best hit afterwards. any_hit:
-// returns at the first hit in (0, tmax) (shadow rays).
+// returns at the first hit in (0, tmax) (shadow rays). Each step descends through wide nodes
+// in a loop of its own down to a leaf, tests the leaf, then pops ("while-while" traversal,
+// Aila and Laine 2009, "Understanding the Efficiency of Ray Traversal on GPUs"): the same
+// nodes and leaves in the same order as one loop over both, but lavapipe runs every branch's
+// code for all lanes, and in one loop a lane's every node step paid for a leaf and a pop.
 Hit bvh_trace(Ray ray, bool any_hit) {
   Hit best = Hit(ray.tmax, 0.0, 0.0, INVALID_INDEX);
   // An axis with |d| < 1e-20 is one the ray runs parallel to: its inverse is +-inf (the sign of
@@ -219,9 +223,11 @@ Hit bvh_trace(Ray ray, bool any_hit) {
   // full, so a loop's closing test at the start of a pass cost a whole pass of it (for the
   // traversal: a node step, a primitive and a pop; docs/performance.md, seventh session).
   if (item != INVALID_INDEX) [[dont_unroll]] while (true) {
-    bool descend = false;  // on to the nearest child, nothing popped
-    if ((item & BVH_WIDE_LEAF) == 0u) {
-      // A wide node: test its four children.
+    // Wide nodes, down to a leaf or a node none of whose children the ray meets (item
+    // INVALID_INDEX). A loop of its own: the lanes that descend do not run the leaf's code at
+    // every level, as they would in one loop over nodes and leaves (lavapipe runs both sides
+    // of every branch).
+    if ((item & BVH_WIDE_LEAF) == 0u) [[dont_unroll]] while (true) {
       uvec4 w0 = bvh_word(4u * item);
       uvec4 qlo = bvh_word(4u * item + 1u);
       uvec4 qhi = bvh_word(4u * item + 2u);
@@ -255,11 +261,10 @@ Hit bvh_trace(Ray ray, bool any_hit) {
         stack_t[sp] = k1;
         ++sp;
       }
-      if (k0 < FAR) {
-        item = i0;
-        descend = true;
-      }
-    } else {
+      item = k0 < FAR ? i0 : INVALID_INDEX;
+      if (item == INVALID_INDEX || (item & BVH_WIDE_LEAF) != 0u) break;
+    }
+    if (item != INVALID_INDEX) {
       // A leaf over prim_refs[first, first + count), count >= 1.
       uint first = item & (BVH_WIDE_FIRST_LIMIT - 1u);
       uint end = first + ((item >> 26) & 31u) + 1u;
@@ -292,17 +297,15 @@ Hit bvh_trace(Ray ray, bool any_hit) {
         if (++k >= end) break;
       }
     }
-    if (!descend) {
-      // Pop, skipping entries that start beyond the best hit so far.
-      item = INVALID_INDEX;
-      if (sp > 0) [[dont_unroll]] while (true) {
-        --sp;
-        if (stack_t[sp] <= best.t) {
-          item = stack_item[sp];
-          break;
-        }
-        if (sp <= 0) break;
+    // Pop, skipping entries that start beyond the best hit so far.
+    item = INVALID_INDEX;
+    if (sp > 0) [[dont_unroll]] while (true) {
+      --sp;
+      if (stack_t[sp] <= best.t) {
+        item = stack_item[sp];
+        break;
       }
+      if (sp <= 0) break;
     }
     if (item == INVALID_INDEX) break;
   }
