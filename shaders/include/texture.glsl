@@ -293,8 +293,13 @@ vec3 tex_shirley_array(uint ti, TexCtx c) {
   return sum;
 }
 
-// Value of instruction ti whose children's values are a0, a1, a2 (docs/textures-spec.md 2).
-vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
+// Whether instructions of this type are evaluated by tex_instruction_large (image maps, noise
+// and Shirley's textures) rather than tex_instruction_small.
+bool tex_type_large(uint type) { return type >= TEXTURE_DOTS; }
+
+// Value of instruction ti of a small family (constant, checkerboard, scale, mix,
+// directionmix, bilerp) whose children's values are a0, a1, a2 (docs/textures-spec.md 2).
+vec3 tex_instruction_small(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
   uint type = texture_at(ti).type;
   if (type == TEXTURE_CONSTANT) return texture_at(ti).param[0].xyz;
   // Each family below is compiled only into pipelines whose scene reaches it (FEATURES2): the
@@ -337,6 +342,13 @@ vec3 tex_instruction(uint ti, TexCtx c, vec3 a0, vec3 a1, vec3 a2) {
       return r;
     }
   }
+  return vec3(0.0);
+}
+
+// Value of instruction ti of a large family (tex_type_large) whose children's values are a0,
+// a1 (docs/textures-spec.md 2).
+vec3 tex_instruction_large(uint ti, TexCtx c, vec3 a0, vec3 a1) {
+  uint type = texture_at(ti).type;
   if (has_feature(FEATURE_TEX_IMAGE) && type == TEXTURE_IMAGEMAP) return tex_image(ti, c);
   if (has_feature2(FEATURE2_TEX_SHIRLEY) && type >= TEXTURE_STRIPE && type <= TEXTURE_VOLUME) {
     // Shirley's solid textures (docs/textures-spec.md 7): one shirley_noise_sum call site
@@ -428,27 +440,55 @@ int tex_child_count(uint type) {
   return 0;
 }
 
-// Value of the rgb texture program with root instruction root.
+// The value stack of the texture interpreter (tex_eval_rgb) and its depth.
+vec3 tex_stack[MAX_TEXTURE_STACK];
+int tex_top;
+
+// Pops the children of instruction i (tex_child_count) into a0, a1, a2 (zero beyond its count);
+// false if the stack holds fewer (a malformed program: the host never emits one).
+bool tex_pop_children(uint i, out vec3 a0, out vec3 a1, out vec3 a2) {
+  int k = tex_child_count(texture_at(i).type);
+  bool ok = tex_top >= k;
+  if (ok) tex_top -= k;
+  a0 = ok && k > 0 ? tex_stack[tex_top] : vec3(0.0);
+  a1 = ok && k > 1 ? tex_stack[tex_top + 1] : vec3(0.0);
+  a2 = ok && k > 2 ? tex_stack[tex_top + 2] : vec3(0.0);
+  return ok;
+}
+
+// Pushes v; false if the stack is full (a malformed program).
+bool tex_push(vec3 v) {
+  if (tex_top >= int(MAX_TEXTURE_STACK)) return false;
+  tex_stack[tex_top++] = v;
+  return true;
+}
+
+// Value of the rgb texture program with root instruction root. The instructions run in program
+// order, each run of small ones in a loop of their own and each large one after it: lavapipe
+// runs the code of every family in each pass of a loop whatever the lanes need, so one loop
+// over all instructions made every checkerboard or scale pay for the image and noise code.
 vec3 tex_eval_rgb(uint root, TexCtx c) {
   if (no_feature(FEATURE_TEXTURES) || root >= uint(textures.length())) return vec3(0.0);
-  vec3 stack[MAX_TEXTURE_STACK];
-  int top = 0;
-  {  // the end tested at the end of a pass (a for loop's closing test costs lavapipe a pass)
-    uint i = texture_at(root).first;
-    if (i <= root) [[dont_unroll]] while (true) {
-      int k = tex_child_count(texture_at(i).type);
-      if (top < k) return vec3(0.0);  // malformed program (the host never emits one)
-      top -= k;
-      vec3 a0 = k > 0 ? stack[top] : vec3(0.0);
-      vec3 a1 = k > 1 ? stack[top + 1] : vec3(0.0);
-      vec3 a2 = k > 2 ? stack[top + 2] : vec3(0.0);
-      vec3 v = tex_instruction(i, c, a0, a1, a2);
-      if (top >= int(MAX_TEXTURE_STACK)) return vec3(0.0);
-      stack[top++] = v;
-      if (++i > root) break;
+  tex_top = 0;
+  // Each loop's end is tested at the end of a pass (a closing test at its start costs
+  // lavapipe a pass).
+  uint i = texture_at(root).first;
+  if (i <= root) [[dont_unroll]] while (true) {
+    if (!tex_type_large(texture_at(i).type)) [[dont_unroll]] while (true) {
+      vec3 a0, a1, a2;
+      if (!tex_pop_children(i, a0, a1, a2) || !tex_push(tex_instruction_small(i, c, a0, a1, a2)))
+        return vec3(0.0);
+      if (++i > root || tex_type_large(texture_at(i).type)) break;
     }
+    if (i <= root) {
+      vec3 a0, a1, a2;
+      if (!tex_pop_children(i, a0, a1, a2) || !tex_push(tex_instruction_large(i, c, a0, a1)))
+        return vec3(0.0);
+      ++i;
+    }
+    if (i > root) break;
   }
-  return top > 0 ? stack[top - 1] : vec3(0.0);
+  return tex_top > 0 ? tex_stack[tex_top - 1] : vec3(0.0);
 }
 
 // Value of the float texture program with root instruction root.
