@@ -11,6 +11,11 @@
 // over its paths and compiles as a smaller shader. A path that ends leaves its radiance in
 // its own words, which the host adds to the pixels in sample order after the wave (several
 // paths of a pixel in a wave: no race, and the sums of one sample a wave).
+// BASALT_WF_STAGE 2 (escape; scenes with an image infinite light only): the escaped radiance
+// of the paths the extend stage queued on WF_LIST_ESCAPE. lavapipe runs an `if`'s code for
+// every lane, so in the extend stage the environment map's lookup and density cost every path,
+// hit or not; in a stage of its own they cost the paths that escaped (pbrt-v4's GPU path has
+// the same stage, HandleEscapedRays).
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
@@ -20,8 +25,8 @@
 
 layout(local_size_x = 64) in;
 
-#if !defined(BASALT_WF_STAGE) || (BASALT_WF_STAGE != 0 && BASALT_WF_STAGE != 1)
-#error "wavefront.comp is built with BASALT_WF_STAGE 0 (extend) or 1 (shade)"
+#if !defined(BASALT_WF_STAGE) || (BASALT_WF_STAGE < 0 || BASALT_WF_STAGE > 2)
+#error "wavefront.comp is built with BASALT_WF_STAGE 0 (extend), 1 (shade) or 2 (escape)"
 #endif
 
 layout(push_constant) uniform Pass {
@@ -106,8 +111,9 @@ void wf_finish(uint id, PathState ps) {
   atomicAdd(counters[0], ps.rays);
 }
 
-// Stage 0: start or resume a path, trace its ray, finish it on a miss, else queue it by the
-// type of the material it hit (MATERIAL_NONE for none).
+// Stage 0: start or resume a path, trace its ray, finish it on a miss (or queue it for the
+// escape stage, with an image infinite light), else queue it by the type of the material it
+// hit (MATERIAL_NONE for none).
 void extend() {
   uint gid = gl_GlobalInvocationID.x;
   if (gid >= pc.pixel_count) return;
@@ -128,16 +134,22 @@ void extend() {
   }
   hit = intersect_closest(ps.ray);
   ++ps.rays;
-  if (hit.prim == INVALID_INDEX) {
+  bool escaped = hit.prim == INVALID_INDEX;
+  if (escaped && no_feature(FEATURE_LIGHT_INFINITE_IMAGE)) {
     path_escape(ps);
     wf_finish(id, ps);
     return;
   }
-  uint m = hit_material(hit);
-  uint type = m == INVALID_INDEX ? MATERIAL_NONE : material_head(m).x;
-  if (type >= MATERIAL_TYPE_COUNT) type = MATERIAL_NONE;
+  // One store and one push for both lists (lavapipe runs every call site for every lane).
+  uint list = WF_LIST_ESCAPE;
+  if (!escaped) {
+    uint m = hit_material(hit);
+    uint type = m == INVALID_INDEX ? MATERIAL_NONE : material_head(m).x;
+    if (type >= MATERIAL_TYPE_COUNT) type = MATERIAL_NONE;
+    list = WF_LIST_QUEUE + type;
+  }
   wf_store(id, ps, hit);
-  wf_push(WF_LIST_QUEUE + type, id);
+  wf_push(list, id);
 }
 
 // Stage 1: one bounce of each path in queue pc.pad0 & 0xffff; a path that goes on joins the
@@ -156,10 +168,23 @@ void shade() {
   }
 }
 
+// Stage 2: the escaped radiance of each path on WF_LIST_ESCAPE, which ends there.
+void escape() {
+  uint gid = gl_GlobalInvocationID.x;
+  if (gid >= pc.pixel_count) return;
+  uint id = wf_lists[wf_entry(WF_LIST_ESCAPE, gid)];
+  Hit hit;
+  PathState ps = wf_load(id, hit);
+  path_escape(ps);
+  wf_finish(id, ps);
+}
+
 void main() {
 #if BASALT_WF_STAGE == 0
   extend();
-#else
+#elif BASALT_WF_STAGE == 1
   shade();
+#else
+  escape();
 #endif
 }

@@ -27,6 +27,7 @@
 #include "shaders/trace.spv.h"
 #include "shaders/wavefront_extend.spv.h"
 #include "shaders/wavefront_extend_plain.spv.h"
+#include "shaders/wavefront_escape.spv.h"
 #include "shaders/wavefront_shade.spv.h"
 #include "shaders/wavefront_shade_plain.spv.h"
 
@@ -374,10 +375,14 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     needed[wf_group_of(gpu::MATERIAL_NONE)] = true;
     for (const gpu::Material& m : t.materials)
       if (m.type < gpu::MATERIAL_TYPE_COUNT) needed[wf_group_of(m.type)] = true;
-    constexpr std::uint32_t kExtend = kWfGroups;  // in stages: the extend stage
-    std::vector<std::uint32_t> stages = {kExtend};  // else a shade group
+    constexpr std::uint32_t kExtend = kWfGroups;      // in stages: the extend stage,
+    constexpr std::uint32_t kEscape = kWfGroups + 1;  // the escape stage, else a shade group
+    std::vector<std::uint32_t> stages = {kExtend};
     for (std::uint32_t g = 0; g < kWfGroups; ++g)
       if (needed[g]) stages.push_back(g);
+    // An image infinite light's escape in a stage of its own (wavefront.comp, stage 2).
+    escape_stage = (features & gpu::FEATURE_LIGHT_INFINITE_IMAGE) != 0u;
+    if (escape_stage) stages.push_back(kEscape);
     // The pipelines are created on worker threads: lavapipe translates and optimises a shader
     // in the thread that creates its pipeline, and compiles it with LLVM at its first dispatch
     // on the queue's thread, so the later pipelines' translation overlaps the earlier ones'
@@ -414,6 +419,9 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
                                              features2, wf_bindings_, wf_path_view_)
                              : make_pipeline(wavefront_extend_spv, sizeof(wavefront_extend_spv),
                                              features, features2, wf_bindings_, wf_path_view_))
+                : g == kEscape
+                    ? make_pipeline(wavefront_escape_spv, sizeof(wavefront_escape_spv), features,
+                                    features2, wf_bindings_, wf_path_view_)
                     : make_wf_shade(wf_group_words(g), on_second(i) ? compiler.get() : nullptr,
                                     [this, g](std::size_t words) {
                                       wf_group_words_size_[g] = words;  // this worker's own
@@ -435,7 +443,9 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
         if (!error) error = std::current_exception();
         continue;
       }
-      (stages[i] == kExtend ? wf_extend_ : wf_shade_[stages[i]]) = p;
+      (stages[i] == kExtend   ? wf_extend_
+       : stages[i] == kEscape ? wf_escape_
+                              : wf_shade_[stages[i]]) = p;
       if (error) continue;
       try {
         dispatch(p, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
@@ -447,6 +457,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     if (error) {
       ctx_.device.waitIdle();
       destroy_pipeline(wf_extend_);
+      destroy_pipeline(wf_escape_);
       for (Pipeline& p : wf_shade_) destroy_pipeline(p);
       ctx_.device.destroyBufferView(wf_path_view_);
       ctx_.destroy_buffer(wf_paths_);
@@ -482,6 +493,7 @@ GpuRenderer::~GpuRenderer() {
   destroy_stage(probe_);
   destroy_stage(trace_);
   destroy_pipeline(wf_extend_);
+  destroy_pipeline(wf_escape_);
   for (Pipeline& p : wf_shade_) destroy_pipeline(p);
   if (wf_capacity_) {
     ctx_.device.destroyBufferView(wf_path_view_);
@@ -775,6 +787,8 @@ void GpuRenderer::wf_wave(std::uint32_t s, std::uint32_t slot0, std::uint32_t pa
           active, cmd);
     });
     lists[out_list] = 0;
+    const std::uint32_t escaped = lists[gpu::WF_LIST_ESCAPE];  // (an image infinite light's)
+    lists[gpu::WF_LIST_ESCAPE] = 0;
     std::uint32_t queued[gpu::MATERIAL_TYPE_COUNT];
     for (std::uint32_t type = 0; type < gpu::MATERIAL_TYPE_COUNT; ++type) {
       queued[type] = lists[gpu::WF_LIST_QUEUE + type];
@@ -790,6 +804,11 @@ void GpuRenderer::wf_wave(std::uint32_t s, std::uint32_t slot0, std::uint32_t pa
         solo_type < gpu::MATERIAL_TYPE_COUNT && queued[solo_type] ? wf_solo_ready() : nullptr;
     ctx_.submit_and_wait([&](vk::CommandBuffer cmd) {
       barrier(cmd);
+      if (escaped)
+        run(wf_escape_,
+            gpu::PassConstants{s, it, slot0, escaped, stride_, slots_, gpu::WF_LIST_ESCAPE,
+                               wf_capacity_},
+            escaped, cmd);
       for (std::uint32_t type = 0; type < gpu::MATERIAL_TYPE_COUNT; ++type)
         if (queued[type])
           run(type == solo_type && solo ? *solo : wf_shade(type),

@@ -97,6 +97,7 @@ class GpuRenderer {
   std::uint64_t device_bytes = 0; // bytes of all scene tables on the device
   std::uint64_t wave_bytes = 0;   // bytes of the wavefront's paths, lists and radiance
   std::string variant;            // render shader build in use: "lean", "full" or "wavefront"
+  bool escape_stage = false;      // the wavefront's escape stage (an image infinite light)
   bool plain = false;             // the plain builds of it (plain_suffices), pruned at build time
   /// Whether a scene of these feature words can use the plain builds of the lean and wavefront
   /// modules (no texture, image-light or bump code: FEATURES_PLAIN_KEEP of layout.h).
@@ -190,8 +191,10 @@ class GpuRenderer {
                  void* output, std::size_t out_size, std::uint32_t pad0);
   void destroy_stage(Stage& s);
   // The wavefront (variant "wavefront"): extend stage, shade stage per MATERIAL_* type (built
-  // for the scene's types at construction, any other on first use), paths and lists.
+  // for the scene's types at construction, any other on first use), paths and lists; the
+  // escape stage in a scene with an image infinite light (else the extend stage's own).
   Pipeline wf_extend_{};
+  Pipeline wf_escape_{};
   std::vector<Pipeline> wf_shade_;
   Buffer wf_paths_{}, wf_lists_{};
   vk::BufferView wf_path_view_{};  // wf_paths_ as a uniform texel view (BINDING_WF_PATH_TEXELS)

@@ -551,7 +551,9 @@ struct PassConstants {
 // WF_LISTS lists of path indices of `capacity` entries each (PassConstants.pad1): the active
 // lists 0 and 1 (the paths still going, written by the shade stages of one iteration, read by
 // the extend stage of the next) and a queue per material type (written by the extend stage,
-// read by that type's shade pipeline). Counter k counts the entries of list k. After the
+// read by that type's shade pipeline), and in a scene with an image infinite light the escape
+// list (the paths whose ray left the scene, written by the extend stage, read by the escape
+// stage). Counter k counts the entries of list k. After the
 // lists, WF_RADIANCE_WORDS words a path: the radiance of the path when it ended (three float
 // bit patterns) and its pixel's index (INVALID_INDEX for a slot that started no path), which
 // the host adds to the pixel after the wave, in the order of the paths (so in sample order).
@@ -565,7 +567,8 @@ struct PassConstants {
 BASALT_CONST uint WF_PATH_VEC4S = 12u;
 BASALT_CONST uint WF_COUNTERS = 32u;
 BASALT_CONST uint WF_LIST_QUEUE = 2u;  // list WF_LIST_QUEUE + t: the queue of MATERIAL_* t
-BASALT_CONST uint WF_LISTS = WF_LIST_QUEUE + MATERIAL_TYPE_COUNT;
+BASALT_CONST uint WF_LIST_ESCAPE = WF_LIST_QUEUE + MATERIAL_TYPE_COUNT;  // escaped paths
+BASALT_CONST uint WF_LISTS = WF_LIST_ESCAPE + 1u;
 BASALT_CONST uint WF_RADIANCE_WORDS = 4u;
 
 // ---- test probes (shaders/tests/probe.comp and its CPU twin host/cpu/probe.cpp) ---------

@@ -210,6 +210,43 @@ TEST(Wavefront, SameImageAsTheMegakernel) {
   EXPECT_GE(agreeing_fraction(cpu, gpu, 1e-3f), 1.0 - 3.0 / (48 * 32));
 }
 
+// With an image infinite light the wavefront adds the escaped radiance in a stage of its own
+// (wavefront.comp stage 2, fed by the extend stage's escape list) instead of in the extend
+// stage: the image and the ray count are still the megakernel's, bit for bit. envmap.pbrt at
+// 48 x 32, 2 samples (misses at every depth: camera rays to the sky, bounces off the spheres);
+// waves of 1000 slots. A scene without one keeps the escape in the extend stage.
+TEST(Wavefront, EscapeStageGivesTheMegakernelsImage) {
+  const SceneTables t = tables_from_file(source_path("scenes/envmap.pbrt"), 48, 32);
+  ASSERT_NE(t.features & gpu::FEATURE_LIGHT_INFINITE_IMAGE, 0u);
+  auto& ctx = gpu_context();
+  const std::size_t before = ctx.validation_errors();
+  std::vector<glm::vec4> images[2];
+  std::uint64_t rays[2];
+  for (int k = 0; k < 2; ++k) {
+    vkx::GpuRenderer::wavefront_capacity = 1000;
+    vkx::GpuRenderer gpu(ctx, t, t.features,
+                         k == 0 ? vkx::ShaderVariant::full : vkx::ShaderVariant::wavefront);
+    vkx::GpuRenderer::wavefront_capacity = 262144;
+    EXPECT_EQ(gpu.escape_stage, k == 1);
+    gpu.render(0, 2);
+    images[k] = gpu.accum();
+    rays[k] = gpu.rays();
+    EXPECT_EQ(gpu.nonfinite_samples(), 0u);
+  }
+  EXPECT_EQ(ctx.validation_errors(), before);
+  ASSERT_EQ(images[0].size(), images[1].size());
+  EXPECT_EQ(std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(glm::vec4)),
+            0);
+  EXPECT_EQ(rays[0], rays[1]);
+  double sum = 0.0;
+  for (const glm::vec4& v : images[1]) sum += v.x + v.y + v.z;
+  EXPECT_GT(sum, 0.0);
+  const SceneTables plain_sky = tables_from_file(source_path("scenes/materials-conductors.pbrt"), 16, 16);
+  vkx::GpuRenderer other(ctx, plain_sky, plain_sky.features, vkx::ShaderVariant::wavefront);
+  EXPECT_FALSE(other.escape_stage);
+  EXPECT_EQ(ctx.validation_errors(), before);
+}
+
 // The megakernel's passes are sized by the time the last one took, so their sizes vary from run
 // to run; each pixel adds its samples one at a time in sample order (render.comp starts from its
 // accum value), so the image is the same bits however the passes fall. spheres-lights at 48 x 32
