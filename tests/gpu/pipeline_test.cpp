@@ -150,6 +150,45 @@ TEST(LeanVariant, SameImageAsFullForTexturedDiffuseScenes) {
   EXPECT_EQ(std::memcmp(lean.data(), full.data(), lean.size() * sizeof(glm::vec4)), 0);
 }
 
+// The wavefront's image of samples [0, 2) of a scene, its ray count and whether it made the
+// escape stage.
+struct WavefrontRun {
+  std::vector<glm::vec4> image;
+  std::uint64_t rays = 0;
+  bool escape_stage = false;
+};
+
+// Renders samples [0, 2) of t with the megakernel (every feature; both samples in one pass)
+// and with the wavefront in waves of 1000 slots, and expects the same image bit for bit, the
+// same ray count, no non-finite sample and a silent validation layer.
+WavefrontRun wavefront_against_megakernel(const SceneTables& t) {
+  auto& ctx = gpu_context();
+  const std::size_t before = ctx.validation_errors();
+  std::vector<glm::vec4> images[2];
+  std::uint64_t rays[2];
+  bool escape_stage[2];
+  for (int k = 0; k < 2; ++k) {
+    vkx::GpuRenderer::wavefront_capacity = 1000;
+    vkx::GpuRenderer gpu(ctx, t, t.features,
+                         k == 0 ? vkx::ShaderVariant::full : vkx::ShaderVariant::wavefront);
+    vkx::GpuRenderer::wavefront_capacity = 262144;
+    EXPECT_EQ(gpu.variant, k == 0 ? "full" : "wavefront");
+    gpu.render(0, 2);
+    images[k] = gpu.accum();
+    rays[k] = gpu.rays();
+    escape_stage[k] = gpu.escape_stage;
+    EXPECT_EQ(gpu.nonfinite_samples(), 0u);
+  }
+  EXPECT_EQ(ctx.validation_errors(), before);
+  EXPECT_FALSE(escape_stage[0]);  // the megakernel has no stages
+  EXPECT_EQ(images[0].size(), images[1].size());
+  if (images[0].size() == images[1].size())
+    EXPECT_EQ(
+        std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(glm::vec4)), 0);
+  EXPECT_EQ(rays[0], rays[1]);
+  return {images[1], rays[1], escape_stage[1]};
+}
+
 // The wavefront stages (shaders/wavefront.comp) run the megakernel's own path code
 // (integrator.glsl: path_start, path_bounce, path_escape) cut at the intersection, a shade
 // pipeline per material type: they give the megakernel's image bit for bit (both add a pixel's
@@ -181,28 +220,9 @@ TEST(Wavefront, SameImageAsTheMegakernel) {
       "  Shape \"sphere\" \"float radius\" 0.7\nAttributeEnd\n"
       "AttributeBegin\n  NamedMaterial \"none\"\n  Translate 0 0.7 -1.2\n"
       "  Shape \"sphere\" \"float radius\" 0.4\nAttributeEnd\n");
-  auto& ctx = gpu_context();
-  const std::size_t before = ctx.validation_errors();
-  std::vector<glm::vec4> images[2];
-  std::uint64_t rays[2];
-  for (int k = 0; k < 2; ++k) {
-    vkx::GpuRenderer::wavefront_capacity = 1000;
-    vkx::GpuRenderer gpu(ctx, t, t.features,
-                         k == 0 ? vkx::ShaderVariant::full : vkx::ShaderVariant::wavefront);
-    vkx::GpuRenderer::wavefront_capacity = 262144;
-    EXPECT_EQ(gpu.variant, k == 0 ? "full" : "wavefront");
-    gpu.render(0, 2);  // the megakernel: both samples in one pass (1,536 slots, 4,096 units)
-    images[k] = gpu.accum();
-    rays[k] = gpu.rays();
-    EXPECT_EQ(gpu.nonfinite_samples(), 0u);
-  }
-  EXPECT_EQ(ctx.validation_errors(), before);
-  ASSERT_EQ(images[0].size(), images[1].size());
-  EXPECT_EQ(std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(glm::vec4)),
-            0);
-  EXPECT_EQ(rays[0], rays[1]);
-  EXPECT_GT(rays[1], 2u * 48u * 32u);  // camera rays and more
-  const std::vector<glm::vec3> gpu = resolve(images[1], 48, 32).pixels;
+  const WavefrontRun run = wavefront_against_megakernel(t);
+  EXPECT_GT(run.rays, 2u * 48u * 32u);  // camera rays and more
+  const std::vector<glm::vec3> gpu = resolve(run.image, 48, 32).pixels;
   const std::vector<glm::vec3> cpu = render(Side::Cpu, t, 2);
   ASSERT_TRUE(all_finite(gpu));
   ASSERT_GT(mean(cpu), 0.0);
@@ -218,29 +238,13 @@ TEST(Wavefront, SameImageAsTheMegakernel) {
 TEST(Wavefront, EscapeStageGivesTheMegakernelsImage) {
   const SceneTables t = tables_from_file(source_path("scenes/envmap.pbrt"), 48, 32);
   ASSERT_NE(t.features & gpu::FEATURE_LIGHT_INFINITE_IMAGE, 0u);
+  const WavefrontRun run = wavefront_against_megakernel(t);
+  EXPECT_TRUE(run.escape_stage);
+  double sum = 0.0;
+  for (const glm::vec4& v : run.image) sum += v.x + v.y + v.z;
+  EXPECT_GT(sum, 0.0);
   auto& ctx = gpu_context();
   const std::size_t before = ctx.validation_errors();
-  std::vector<glm::vec4> images[2];
-  std::uint64_t rays[2];
-  for (int k = 0; k < 2; ++k) {
-    vkx::GpuRenderer::wavefront_capacity = 1000;
-    vkx::GpuRenderer gpu(ctx, t, t.features,
-                         k == 0 ? vkx::ShaderVariant::full : vkx::ShaderVariant::wavefront);
-    vkx::GpuRenderer::wavefront_capacity = 262144;
-    EXPECT_EQ(gpu.escape_stage, k == 1);
-    gpu.render(0, 2);
-    images[k] = gpu.accum();
-    rays[k] = gpu.rays();
-    EXPECT_EQ(gpu.nonfinite_samples(), 0u);
-  }
-  EXPECT_EQ(ctx.validation_errors(), before);
-  ASSERT_EQ(images[0].size(), images[1].size());
-  EXPECT_EQ(std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(glm::vec4)),
-            0);
-  EXPECT_EQ(rays[0], rays[1]);
-  double sum = 0.0;
-  for (const glm::vec4& v : images[1]) sum += v.x + v.y + v.z;
-  EXPECT_GT(sum, 0.0);
   const SceneTables plain_sky = tables_from_file(source_path("scenes/materials-conductors.pbrt"), 16, 16);
   vkx::GpuRenderer other(ctx, plain_sky, plain_sky.features, vkx::ShaderVariant::wavefront);
   EXPECT_FALSE(other.escape_stage);
