@@ -176,6 +176,29 @@ bool GpuRenderer::lean_suffices(std::uint32_t features) {
   return (features & ~kLeanFeatures) == 0u;
 }
 
+bool GpuRenderer::megakernel_suffices(std::uint32_t features, std::uint32_t features2) {
+  // The wavefront stages for scenes with a material beyond the closed-form reflection BRDFs
+  // (diffuse, Oren-Nayar, measured), which they render up to 2.7x faster on lavapipe; below
+  // that the shading code is small and the megakernel is as fast or faster (materials-diffuse
+  // 1.29x, materials-measured 1.22x as wavefront). The megakernel also for conductors,
+  // dielectrics and thin dielectrics where nothing is textured and no portal: their code is
+  // small too, and the wavefront's path stores and dispatches cost more than its queues save
+  // (envmap, materials-dielectrics: 12-22% faster as a megakernel at 8-32 spp). Textures stay
+  // with the wavefront (its untextured materials' pipelines leave the texture interpreter
+  // out: textures-specular 6-17% slower as a megakernel), and so does a portal (the escape
+  // stage keeps its lookups off the bounces: envmap-portal 43% slower as a megakernel).
+  // Figures: docs/performance.md, eleventh session.
+  constexpr std::uint32_t kReflection =
+      gpu::FEATURE_MAT_DIFFUSE | gpu::FEATURE_MAT_OREN_NAYAR | gpu::FEATURE_MAT_MEASURED;
+  constexpr std::uint32_t kUntextured = kReflection | gpu::FEATURE_MAT_CONDUCTOR |
+                                        gpu::FEATURE_MAT_DIELECTRIC |
+                                        gpu::FEATURE_MAT_THIN_DIELECTRIC;
+  const std::uint32_t materials = features & material_bits();
+  return (materials & ~kReflection) == 0u ||
+         ((materials & ~kUntextured) == 0u && (features & gpu::FEATURE_TEXTURES) == 0u &&
+          (features2 & gpu::FEATURE2_ENV_PORTAL) == 0u);
+}
+
 bool GpuRenderer::plain_suffices(std::uint32_t features, std::uint32_t features2) {
   return (features & ~gpu::FEATURES_PLAIN_KEEP) == 0u &&
          (features2 & ~gpu::FEATURES2_PLAIN_KEEP) == 0u;
@@ -188,13 +211,6 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   if (which == ShaderVariant::lean && !lean_suffices(features))
     throw std::invalid_argument("the lean render shader cannot render feature bits " +
                                 std::to_string(features));
-  // automatic: the wavefront stages for scenes with a material beyond the closed-form
-  // reflection BRDFs (diffuse, Oren-Nayar, measured), which they render up to 2.7x faster on
-  // lavapipe; below that the shading code is small and the megakernel is as fast or faster
-  // (materials-diffuse 1.29x, materials-measured 1.22x as wavefront; docs/performance.md).
-  // The all-features pipeline stays one megakernel.
-  constexpr std::uint32_t kMegakernelMaterials =
-      gpu::FEATURE_MAT_DIFFUSE | gpu::FEATURE_MAT_OREN_NAYAR | gpu::FEATURE_MAT_MEASURED;
   // The wavefront binds one more uniform texel view than the tables (its paths): a device
   // with fewer per stage than Vulkan's 16 + 1 keeps the megakernel.
   const bool wavefront_fits = ctx.info().max_per_stage_sampled_images > TEXEL_VIEW_COUNT;
@@ -203,10 +219,12 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
                                 std::to_string(TEXEL_VIEW_COUNT + 1) +
                                 " uniform texel views per stage; " + ctx.info().name + " has " +
                                 std::to_string(ctx.info().max_per_stage_sampled_images));
+  // automatic: the wavefront stages unless megakernel_suffices; the all-features pipeline stays
+  // one megakernel.
   const bool wavefront =
       which == ShaderVariant::wavefront ||
       (which == ShaderVariant::automatic && wavefront_fits && features != 0xffffffffu &&
-       (features & material_bits() & ~kMegakernelMaterials) != 0u);
+       !megakernel_suffices(features, features == t.features ? t.features2 : 0xffffffffu));
   const bool lean = !wavefront && which != ShaderVariant::full && lean_suffices(features);
   variant = wavefront ? "wavefront" : lean ? "lean" : "full";
   // Invocations cover 8x8 pixel tiles (one workgroup each): slots_ is the tile-padded count.

@@ -482,7 +482,8 @@ TEST(Wavefront, SoloPipelineKeepsTheImage) {
 }
 
 // A scene with any material kind other than diffuse never gets the lean shader: not by
-// default (it gets the wavefront stages), and asking for it is an error.
+// default (it gets the wavefront stages, or the full megakernel: Automatic.*), and asking for
+// it is an error.
 TEST(LeanVariant, NeverForOtherMaterials) {
   for (const char* file : {"scenes/material-zoo.pbrt", "scenes/materials-coated.pbrt",
                            "scenes/materials-conductors.pbrt", "scenes/materials-dielectrics.pbrt",
@@ -510,6 +511,37 @@ TEST(LeanVariant, NeverForOtherMaterials) {
                           f != gpu::FEATURE_MAT_MEASURED;
     EXPECT_EQ(vkx::GpuRenderer::lean_suffices(gpu::FEATURE_MAT_DIFFUSE | f), !material) << bit;
   }
+}
+
+// The automatic choice between the megakernel and the wavefront (megakernel_suffices): the
+// megakernel for diffuse, Oren-Nayar and measured, and for conductors, dielectrics and thin
+// dielectrics where nothing is textured and no portal; the wavefront for any other material,
+// and for those three beside a texture or a portal.
+TEST(Automatic, MegakernelForUntexturedConductorsAndDielectrics) {
+  const std::pair<const char*, bool> scenes[] = {
+      {"scenes/cornell-box.pbrt", true},          {"scenes/materials-diffuse.pbrt", true},
+      {"scenes/materials-dielectrics.pbrt", true}, {"scenes/envmap.pbrt", true},
+      {"scenes/envmap-latlong.pbrt", true},       {"scenes/envmap-portal.pbrt", false},
+      {"scenes/textures-specular.pbrt", false},   {"scenes/textures-image.pbrt", false},
+      {"scenes/materials-coated.pbrt", false},    {"scenes/materials-mix.pbrt", false},
+      {"scenes/materials-transmission.pbrt", false}, {"scenes/material-zoo.pbrt", false}};
+  for (const auto& [file, megakernel] : scenes) {
+    SceneTables t = tables_from_file(source_path(file), 8, 8);
+    EXPECT_EQ(vkx::GpuRenderer::megakernel_suffices(t.features, t.features2), megakernel) << file;
+  }
+  const std::uint32_t metal = gpu::FEATURE_MAT_DIFFUSE | gpu::FEATURE_MAT_CONDUCTOR;
+  EXPECT_TRUE(vkx::GpuRenderer::megakernel_suffices(metal, 0u));
+  EXPECT_TRUE(vkx::GpuRenderer::megakernel_suffices(gpu::FEATURE_MAT_THIN_DIELECTRIC, 0u));
+  EXPECT_FALSE(vkx::GpuRenderer::megakernel_suffices(metal | gpu::FEATURE_TEXTURES, 0u));
+  EXPECT_FALSE(vkx::GpuRenderer::megakernel_suffices(metal, gpu::FEATURE2_ENV_PORTAL));
+  EXPECT_FALSE(
+      vkx::GpuRenderer::megakernel_suffices(metal | gpu::FEATURE_MAT_COATED_DIFFUSE, 0u));
+  // Diffuse alone keeps the megakernel beside textures and a portal (the lean shader's).
+  EXPECT_TRUE(vkx::GpuRenderer::megakernel_suffices(
+      gpu::FEATURE_MAT_DIFFUSE | gpu::FEATURE_TEXTURES, gpu::FEATURE2_ENV_PORTAL));
+  SceneTables t = tables_from_file(source_path("scenes/materials-dielectrics.pbrt"), 8, 8);
+  vkx::GpuRenderer gpu(gpu_context(), t);
+  EXPECT_EQ(gpu.variant, "full");
 }
 
 // The plain builds (render_lean_plain, wavefront_*_plain: no texture, image-light or bump code,
