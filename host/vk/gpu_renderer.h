@@ -25,7 +25,8 @@ namespace basalt::vkx {
 /// dielectrics: full); the all-features pipeline stays full.
 /// All are specialised for the features.
 /// `wavefront`: the stages of shaders/wavefront.comp instead of the megakernel: an extend
-/// pipeline, and shade pipelines for groups of material types (layered, mixes, the others),
+/// pipeline, and shade pipelines for groups of material types (layered, mixes, the others,
+/// and the untextured others where the others are the only group and some are textured),
 /// each specialised for the features with only its group's material bits; the paths are
 /// queued per material type (docs/performance.md).
 enum class ShaderVariant { automatic, full, lean, wavefront };
@@ -209,10 +210,11 @@ class GpuRenderer {
   std::uint32_t wf_mix_bits_ = 0;  // material bits of the types the scene's mixes reach
   std::uint32_t wf_mix_group_ = 2;  // the shade group of the mixes: 2, or 0 (none reaches a
                                     // layered material)
+  std::uint32_t wf_untextured_types_ = 0;  // bit per MATERIAL_* type shaded by group 3
   std::vector<std::pair<std::uint32_t, Buffer*>> wf_bindings_;
   std::uint32_t globals_max_depth_ = 0;  // Globals image.z at the last render()
   /// \brief The shade group whose pipeline shades MATERIAL_* \p type (wf_group, with the
-  /// mixes in wf_mix_group_).
+  /// mixes in wf_mix_group_ and the types of wf_untextured_types_ in group 3).
   std::uint32_t wf_group_of(std::uint32_t type) const;
   /// \brief Makes a shade pipeline specialised for the feature words \p words (the plain
   ///        build when \c plain).

@@ -404,6 +404,29 @@ TEST(Wavefront, ShadeGroupsGetTheirOwnTextureFamilies) {
   }, "bump.pbrt");
 }
 
+// A scene whose only shade group holds textured and untextured types gives the untextured ones
+// a pipeline of their own without the texture code (group 3): in textures-specular.pbrt the
+// conductor and the dielectric (untextured) get neither the image nor the checkerboard code,
+// the diffuse materials (image and checkerboard textures) both. Both render, bit for bit, what
+// one pipeline for all three renders (the split follows group_texture_features).
+TEST(Wavefront, UntexturedTypesGetAPipelineOfTheirOwn) {
+  SceneTables t = tables_from_file(source_path("scenes/textures-specular.pbrt"), 48, 32);
+  ASSERT_TRUE(t.features & gpu::FEATURE_TEX_IMAGE);
+  expect_same_image_both_ways(t, vkx::GpuRenderer::group_texture_features,
+                              [](vkx::GpuRenderer& gpu, bool own) {
+    ASSERT_EQ(gpu.variant, "wavefront");
+    const auto diffuse = gpu.shade_feature_words(gpu::MATERIAL_DIFFUSE);
+    const auto conductor = gpu.shade_feature_words(gpu::MATERIAL_CONDUCTOR);
+    EXPECT_EQ(gpu.shade_feature_words(gpu::MATERIAL_DIELECTRIC), conductor);
+    EXPECT_TRUE(diffuse.first & gpu::FEATURE_TEX_IMAGE);
+    EXPECT_TRUE(diffuse.second & gpu::FEATURE2_TEX_CHECKER_AA);
+    EXPECT_EQ((conductor.first & gpu::FEATURE_TEX_IMAGE) != 0u, !own);
+    EXPECT_EQ((conductor.second & gpu::FEATURE2_TEX_CHECKER_AA) != 0u, !own);
+    EXPECT_EQ((conductor.first & gpu::FEATURE_MAT_DIFFUSE) != 0u, !own);
+    EXPECT_EQ(diffuse == conductor, !own);
+  }, "textures-specular.pbrt");
+}
+
 // On lavapipe with Mesa's shader cache on, a scene with two shade groups has group 0's
 // pipeline compiled on a second device as well (CompileDevice) when basalt's cache does not
 // have its module: bump.pbrt renders the same image, bit for bit, with and without it, and
