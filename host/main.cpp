@@ -349,9 +349,8 @@ int main(int argc, char** argv) {
        {"scene", "bvh", "exhaustive", "power", "uniform"}},
       {"--pipeline", &opt.pipeline,
        "GPU pipeline, specialised to the scene's features: specialised (the default: the "
-       "wavefront for scenes with materials beyond diffuse, Oren-Nayar and measured, unless "
-       "they are only conductors and dielectrics with nothing textured and no portal; else the "
-       "megakernel), megakernel (one shader for the "
+       "wavefront for scenes with a layered material, untextured materials beside textured "
+       "ones, or a portal; else the megakernel), megakernel (one shader for the "
        "whole path), wavefront (an extend stage and shading pipelines by material type; the "
        "same image), or all (the megakernel with every feature "
        "compiled in; same image, for timing)",

@@ -179,27 +179,53 @@ bool GpuRenderer::lean_suffices(std::uint32_t features) {
   return (features & ~kLeanFeatures) == 0u;
 }
 
-bool GpuRenderer::megakernel_suffices(std::uint32_t features, std::uint32_t features2) {
-  // The wavefront stages for scenes with a material beyond the closed-form reflection BRDFs
-  // (diffuse, Oren-Nayar, measured), which they render up to 2.7x faster on lavapipe; below
-  // that the shading code is small and the megakernel is as fast or faster (materials-diffuse
-  // 1.29x, materials-measured 1.22x as wavefront). The megakernel also for conductors,
-  // dielectrics and thin dielectrics where nothing is textured and no portal: their code is
-  // small too, and the wavefront's path stores and dispatches cost more than its queues save
-  // (envmap, materials-dielectrics: 12-22% faster as a megakernel at 8-32 spp). Textures stay
-  // with the wavefront (its untextured materials' pipelines leave the texture interpreter
-  // out: textures-specular 6-17% slower as a megakernel), and so does a portal (the escape
-  // stage keeps its lookups off the bounces: envmap-portal 43% slower as a megakernel).
-  // Figures: docs/performance.md, eleventh session.
+std::uint32_t GpuRenderer::untextured_types(const SceneTables& t) {
+  // Where group 0 holds textured and untextured types and the scene has no other shade group
+  // (no layered material, no mix), the untextured types get a pipeline of their own without
+  // the texture code (group 3): two pipelines of about 0.7 of the one each, compiled in
+  // parallel, and the untextured paths no longer run the texture interpreter
+  // (textures-specular 9% faster, its cold pipelines 1.13 -> 1.03 s). Beside a layered or mix
+  // group it would be a third shade pipeline, which breaks the cold budget (bump 1.98 ->
+  // 2.44 s). Figures: docs/performance.md, eleventh session.
+  std::uint32_t untextured = 0, textured = 0;
+  for (const gpu::Material& m : t.materials) {
+    if (m.type >= gpu::MATERIAL_TYPE_COUNT) continue;
+    if (wf_group(m.type) != 0) return 0;
+    // none and interface: no BSDF code of their own
+    if (material_feature(m.type) == 0u || m.type == gpu::MATERIAL_INTERFACE) continue;
+    if (material_texture_features(t, m) == glm::uvec2(0u))
+      untextured |= 1u << m.type;
+    else
+      textured |= 1u << m.type;
+  }
+  // A type with a textured material stays with the textured ones.
+  untextured &= ~textured;
+  return textured != 0u ? untextured : 0u;
+}
+
+bool GpuRenderer::megakernel_suffices(const SceneTables& t, std::uint32_t features,
+                                      std::uint32_t features2) {
+  // The wavefront stages pay where they split the scene's material code over pipelines: a
+  // dispatch then runs only its queue's types' code, where the megakernel runs every type's on
+  // every bounce (lavapipe runs every branch for all lanes). That is the case with a layered
+  // material (its random walk in a group of its own: the 11 shipped scenes with one render
+  // 1.5-1.9x slower as a megakernel) and where group 0's untextured types get their own
+  // pipeline (untextured_types: textures-specular 6-17% slower as a megakernel), and a portal
+  // keeps its lookups off the bounces in the escape stage (envmap-portal 1.43x slower).
+  // Otherwise the wavefront's one shade pipeline holds the megakernel's material code, and its
+  // path stores, loads and dispatches cost more than its queues save: materials-dielectrics,
+  // envmap, envmap-latlong, textures-image, materials-mix 5-22% faster as a megakernel at
+  // 8-64 spp, materials-transmission within 3%. Diffuse, Oren-Nayar and measured alone get
+  // the lean megakernel (materials-diffuse 1.29x, materials-measured 1.22x slower as a
+  // wavefront). Figures: docs/performance.md, eleventh session.
   constexpr std::uint32_t kReflection =
       gpu::FEATURE_MAT_DIFFUSE | gpu::FEATURE_MAT_OREN_NAYAR | gpu::FEATURE_MAT_MEASURED;
-  constexpr std::uint32_t kUntextured = kReflection | gpu::FEATURE_MAT_CONDUCTOR |
-                                        gpu::FEATURE_MAT_DIELECTRIC |
-                                        gpu::FEATURE_MAT_THIN_DIELECTRIC;
+  constexpr std::uint32_t kLayered =
+      gpu::FEATURE_MAT_COATED_DIFFUSE | gpu::FEATURE_MAT_COATED_CONDUCTOR;
   const std::uint32_t materials = features & material_bits();
-  return (materials & ~kReflection) == 0u ||
-         ((materials & ~kUntextured) == 0u && (features & gpu::FEATURE_TEXTURES) == 0u &&
-          (features2 & gpu::FEATURE2_ENV_PORTAL) == 0u);
+  if ((materials & ~kReflection) == 0u) return true;
+  return (materials & kLayered) == 0u && (features2 & gpu::FEATURE2_ENV_PORTAL) == 0u &&
+         untextured_types(t) == 0u;
 }
 
 bool GpuRenderer::plain_suffices(std::uint32_t features, std::uint32_t features2) {
@@ -227,7 +253,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
   const bool wavefront =
       which == ShaderVariant::wavefront ||
       (which == ShaderVariant::automatic && wavefront_fits && features != 0xffffffffu &&
-       !megakernel_suffices(features, features == t.features ? t.features2 : 0xffffffffu));
+       !megakernel_suffices(t, features, features == t.features ? t.features2 : 0xffffffffu));
   const bool lean = !wavefront && which != ShaderVariant::full && lean_suffices(features);
   variant = wavefront ? "wavefront" : lean ? "lean" : "full";
   // Invocations cover 8x8 pixel tiles (one workgroup each): slots_ is the tile-padded count.
@@ -378,31 +404,11 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     // The texture families of each type's materials and of each group's (the mixes' group: of
     // what they reach): a shade pipeline is specialised without the others' (shade_words).
     wf_type_tex_bits_.assign(gpu::MATERIAL_TYPE_COUNT, glm::uvec2(0u));
-    std::uint32_t group0_types = 0, other_groups = 0;
-    for (const gpu::Material& m : t.materials) {
-      if (m.type >= gpu::MATERIAL_TYPE_COUNT) continue;
-      wf_type_tex_bits_[m.type] |= material_texture_features(t, m);
-      if (wf_group(m.type) == 0)
-        group0_types |= 1u << m.type;
-      else
-        ++other_groups;
-    }
-    // Where group 0 holds textured and untextured types and the scene has no other shade
-    // group, the untextured types get a pipeline of their own without the texture code
-    // (group 3): two pipelines of about 0.7 of the one each, compiled in parallel, and the
-    // untextured paths no longer run the texture interpreter (textures-specular 9% faster,
-    // its cold pipelines 1.13 -> 1.03 s; docs/performance.md, eleventh session). Beside a
-    // layered or mix group it would be a third shade pipeline, which breaks the cold budget.
-    wf_untextured_types_ = 0;
-    std::uint32_t textured = 0;
-    for (std::uint32_t type = 1; type < gpu::MATERIAL_TYPE_COUNT; ++type) {
-      if ((group0_types >> type & 1u) == 0u || material_feature(type) == 0u) continue;
-      if (wf_type_tex_bits_[type] == glm::uvec2(0u))
-        wf_untextured_types_ |= 1u << type;
-      else
-        textured |= 1u << type;
-    }
-    if (other_groups != 0 || textured == 0 || !group_texture_features) wf_untextured_types_ = 0;
+    for (const gpu::Material& m : t.materials)
+      if (m.type < gpu::MATERIAL_TYPE_COUNT)
+        wf_type_tex_bits_[m.type] |= material_texture_features(t, m);
+    // Group 3: the untextured types beside textured ones (untextured_types).
+    wf_untextured_types_ = group_texture_features ? untextured_types(t) : 0u;
     wf_tex_bits_.assign(kWfGroups, glm::uvec2(0u));
     for (std::uint32_t m = 0; m < t.materials.size(); ++m) {
       const glm::uvec2 bits = material_texture_features(t, t.materials[m]);

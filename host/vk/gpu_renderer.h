@@ -20,9 +20,9 @@ namespace basalt::vkx {
 /// (compiled with BASALT_LEAN_MATERIALS: MATERIAL_DIFFUSE, MATERIAL_OREN_NAYAR and
 /// MATERIAL_MEASURED only, for scenes whose feature bits have no other FEATURE_MAT_*);
 /// `automatic` picks lean
-/// whenever it can render the features; the wavefront for scenes with a material beyond
-/// diffuse, Oren-Nayar and measured unless megakernel_suffices (untextured conductors and
-/// dielectrics: full); the all-features pipeline stays full.
+/// whenever it can render the features, the wavefront for scenes with a material beyond
+/// diffuse, Oren-Nayar and measured unless megakernel_suffices (then full); the all-features
+/// pipeline stays full.
 /// All are specialised for the features.
 /// `wavefront`: the stages of shaders/wavefront.comp instead of the megakernel: an extend
 /// pipeline, and shade pipelines for groups of material types (layered, mixes, the others,
@@ -73,11 +73,17 @@ class GpuRenderer {
   ///        exactly as the full one does (no feature it lacks, i.e. no FEATURE_MAT_* other
   ///        than FEATURE_MAT_DIFFUSE and no bit it does not know).
   static bool lean_suffices(std::uint32_t features);
-  /// \brief True if ShaderVariant::automatic renders scenes with feature words \p features,
-  ///        \p features2 through a megakernel rather than the wavefront stages: materials no
-  ///        heavier than diffuse, Oren-Nayar and measured, or, where nothing is textured and
-  ///        no portal, conductors, dielectrics and thin dielectrics too (docs/performance.md).
-  static bool megakernel_suffices(std::uint32_t features, std::uint32_t features2);
+  /// \brief True if ShaderVariant::automatic renders \p t with feature words \p features,
+  ///        \p features2 through a megakernel rather than the wavefront stages: where the
+  ///        wavefront would make one shade pipeline (no layered material, no untextured_types)
+  ///        and no portal, or the materials are diffuse, Oren-Nayar and measured alone.
+  static bool megakernel_suffices(const SceneTables& t, std::uint32_t features,
+                                  std::uint32_t features2);
+  /// \brief The MATERIAL_* types (a bit each) whose materials have no texture, in a scene
+  ///        whose materials are all of wf_group 0 (no layered material, no mix) and some
+  ///        textured: the wavefront shades them in a pipeline of their own (group 3) without
+  ///        the texture code. 0 for other scenes.
+  static std::uint32_t untextured_types(const SceneTables& t);
   /// \brief Runs shaders/tests/probe.comp over \p queries (GPU twin of basalt::cpu::probe),
   ///        specialised for the uploaded Globals' feature words.
   std::vector<gpu::ProbeOut> probe(const std::vector<gpu::ProbeIn>& queries);

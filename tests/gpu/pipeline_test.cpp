@@ -457,7 +457,8 @@ TEST(Wavefront, SecondDeviceCompileKeepsTheImage) {
 // device (CompileDevice). material-zoo: the diffuse floor and walls among 15 other types;
 // materials-transmission: diffuse beside diffuse transmission and translucent; bump.pbrt: a
 // diffuse floor bumped by noise beside noise-bumped conductors, whose code is mostly the
-// textures the diffuse floor needs too (its module 0.88 of the group's: none is made).
+// textures the diffuse floor needs too (its module 0.88 of the group's: none is made). Each
+// asks for the wavefront (materials-transmission renders as a megakernel by default).
 TEST(Wavefront, SoloPipelineKeepsTheImage) {
   const char* old_cache = std::getenv("BASALT_CACHE_DIR");
   const std::string saved = old_cache ? old_cache : "";
@@ -473,7 +474,7 @@ TEST(Wavefront, SoloPipelineKeepsTheImage) {
     for (int on = 0; on < 2; ++on) {
       vkx::GpuRenderer::solo_pipeline =
           on ? vkx::GpuRenderer::Solo::at_once : vkx::GpuRenderer::Solo::off;
-      vkx::GpuRenderer gpu(ctx, t);
+      vkx::GpuRenderer gpu(ctx, t, t.features, vkx::ShaderVariant::wavefront);
       gpu.render(0, 4);  // the choice is made at the first wave
       vkx::GpuRenderer::solo_pipeline = vkx::GpuRenderer::Solo::background;
       ASSERT_EQ(gpu.variant, "wavefront") << file;
@@ -537,31 +538,35 @@ TEST(LeanVariant, NeverForOtherMaterials) {
 }
 
 // The automatic choice between the megakernel and the wavefront (megakernel_suffices): the
-// megakernel for diffuse, Oren-Nayar and measured, and for conductors, dielectrics and thin
-// dielectrics where nothing is textured and no portal; the wavefront for any other material,
-// and for those three beside a texture or a portal.
-TEST(Automatic, MegakernelForUntexturedConductorsAndDielectrics) {
+// wavefront where it splits the material code over pipelines (a layered material, or the
+// untextured types beside textured ones: untextured_types) or the scene has a portal; the
+// megakernel otherwise (one shade pipeline would hold the megakernel's material code).
+TEST(Automatic, WavefrontWhereItSplitsTheMaterialCode) {
   const std::pair<const char*, bool> scenes[] = {
-      {"scenes/cornell-box.pbrt", true},          {"scenes/materials-diffuse.pbrt", true},
+      {"scenes/cornell-box.pbrt", true},           {"scenes/materials-diffuse.pbrt", true},
       {"scenes/materials-dielectrics.pbrt", true}, {"scenes/envmap.pbrt", true},
-      {"scenes/envmap-latlong.pbrt", true},       {"scenes/envmap-portal.pbrt", false},
-      {"scenes/textures-specular.pbrt", false},   {"scenes/textures-image.pbrt", false},
-      {"scenes/materials-coated.pbrt", false},    {"scenes/materials-mix.pbrt", false},
-      {"scenes/materials-transmission.pbrt", false}, {"scenes/material-zoo.pbrt", false}};
+      {"scenes/envmap-latlong.pbrt", true},        {"scenes/textures-image.pbrt", true},
+      {"scenes/materials-mix.pbrt", true},         {"scenes/materials-transmission.pbrt", true},
+      {"scenes/envmap-portal.pbrt", false},        {"scenes/textures-specular.pbrt", false},
+      {"scenes/materials-coated.pbrt", false},     {"scenes/materials-conductors.pbrt", false},
+      {"scenes/bump.pbrt", false},                 {"scenes/material-zoo.pbrt", false}};
   for (const auto& [file, megakernel] : scenes) {
     SceneTables t = tables_from_file(source_path(file), 8, 8);
-    EXPECT_EQ(vkx::GpuRenderer::megakernel_suffices(t.features, t.features2), megakernel) << file;
+    EXPECT_EQ(vkx::GpuRenderer::megakernel_suffices(t, t.features, t.features2), megakernel)
+        << file;
   }
-  const std::uint32_t metal = gpu::FEATURE_MAT_DIFFUSE | gpu::FEATURE_MAT_CONDUCTOR;
-  EXPECT_TRUE(vkx::GpuRenderer::megakernel_suffices(metal, 0u));
-  EXPECT_TRUE(vkx::GpuRenderer::megakernel_suffices(gpu::FEATURE_MAT_THIN_DIELECTRIC, 0u));
-  EXPECT_FALSE(vkx::GpuRenderer::megakernel_suffices(metal | gpu::FEATURE_TEXTURES, 0u));
-  EXPECT_FALSE(vkx::GpuRenderer::megakernel_suffices(metal, gpu::FEATURE2_ENV_PORTAL));
-  EXPECT_FALSE(
-      vkx::GpuRenderer::megakernel_suffices(metal | gpu::FEATURE_MAT_COATED_DIFFUSE, 0u));
-  // Diffuse alone keeps the megakernel beside textures and a portal (the lean shader's).
-  EXPECT_TRUE(vkx::GpuRenderer::megakernel_suffices(
-      gpu::FEATURE_MAT_DIFFUSE | gpu::FEATURE_TEXTURES, gpu::FEATURE2_ENV_PORTAL));
+  // textures-specular: an untextured conductor and dielectric beside textured diffuse
+  // materials; textures-image's conductor is textured (a roughness map); bump has a layered
+  // material.
+  auto untextured = [](const char* file) {
+    return vkx::GpuRenderer::untextured_types(tables_from_file(source_path(file), 8, 8));
+  };
+  EXPECT_EQ(untextured("scenes/textures-specular.pbrt"),
+            (1u << gpu::MATERIAL_CONDUCTOR) | (1u << gpu::MATERIAL_DIELECTRIC));
+  EXPECT_EQ(untextured("scenes/textures-image.pbrt"), 0u);
+  EXPECT_EQ(untextured("scenes/bump.pbrt"), 0u);
+  EXPECT_EQ(untextured("scenes/envmap.pbrt"), 0u);  // nothing textured
+  // The constructor follows it: materials-dielectrics renders through the full megakernel.
   SceneTables t = tables_from_file(source_path("scenes/materials-dielectrics.pbrt"), 8, 8);
   vkx::GpuRenderer gpu(gpu_context(), t);
   EXPECT_EQ(gpu.variant, "full");
