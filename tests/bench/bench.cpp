@@ -462,6 +462,13 @@ int main(int argc, char** argv) {
         benchmark::ConsoleReporter::OutputOptions(opts));
   }
   register_all();
+  // The figures depend on the driver's version (docs/performance.md, twelfth session: lavapipe
+  // of Mesa 22.3 and of Mesa 25.0 on the same machine), so the header names it.
+  try {
+    benchmark::AddCustomContext("vulkan_driver", context().info().driver);
+  } catch (const std::exception& e) {
+    benchmark::AddCustomContext("vulkan_driver", std::string("none (") + e.what() + ")");
+  }
   basalt::bench::TargetsReporter reporter(std::move(display));
   benchmark::RunSpecifiedBenchmarks(&reporter);
   // After a json display the table goes to stderr, keeping stdout parseable.
