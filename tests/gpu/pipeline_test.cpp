@@ -182,9 +182,10 @@ WavefrontRun wavefront_against_megakernel(const SceneTables& t) {
   EXPECT_EQ(ctx.validation_errors(), before);
   EXPECT_FALSE(escape_stage[0]);  // the megakernel has no stages
   EXPECT_EQ(images[0].size(), images[1].size());
-  if (images[0].size() == images[1].size())
+  if (images[0].size() == images[1].size()) {
     EXPECT_EQ(
         std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(glm::vec4)), 0);
+  }
   EXPECT_EQ(rays[0], rays[1]);
   return {images[1], rays[1], escape_stage[1]};
 }
