@@ -31,6 +31,11 @@ backports_needed=false
 if [ "$mesa" = backports ]; then
   v=$(dpkg-query -W -f='${Version}' mesa-vulkan-drivers 2>/dev/null || true)
   if [ -z "$v" ] || dpkg --compare-versions "$v" lt 25; then backports_needed=true; fi
+  codename=$(. /etc/os-release 2>/dev/null && echo "${VERSION_CODENAME:-}")
+  if [ "$backports_needed" = true ] && [ "$codename" != bookworm ]; then
+    echo "basalt: BASALT_MESA=backports is for Debian 12 (bookworm), this is '${codename:-unknown}'" >&2
+    exit 2
+  fi
 fi
 if [ ${#missing[@]} -eq 0 ] && [ "$backports_needed" = false ]; then exit 0; fi
 sudo=""
