@@ -369,6 +369,24 @@ void BM_Displacement(benchmark::State& state) {
 }
 
 /// Registers every benchmark for every scene file.
+// The processor as /proc/cpuinfo names it, with its family and model: two machines both called
+// "AMD EPYC" with 2 cores at 2.6 GHz ran lavapipe at 0.53-0.87 of the CPU reference's speed on
+// the same scenes (docs/performance.md, thirteenth session), so the header says which it was.
+std::string cpu_model() {
+  std::ifstream in("/proc/cpuinfo");
+  std::map<std::string, std::string> fields;
+  for (std::string line; std::getline(in, line) && !line.empty();) {
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    std::string key = line.substr(0, colon);
+    key.erase(key.find_last_not_of(" \t") + 1);
+    fields[key] = colon + 2 <= line.size() ? line.substr(colon + 2) : "";
+  }
+  if (fields.count("model name") == 0) return "unknown";
+  return fields["model name"] + " (family " + fields["cpu family"] + ", model " +
+         fields["model"] + ")";
+}
+
 void register_all() {
   for (std::size_t i = 0; i < texture_families().size(); ++i)
     for (int side = 0; side < 2; ++side)
@@ -469,6 +487,7 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     benchmark::AddCustomContext("vulkan_driver", std::string("none (") + e.what() + ")");
   }
+  benchmark::AddCustomContext("cpu_model", cpu_model());
   basalt::bench::TargetsReporter reporter(std::move(display));
   benchmark::RunSpecifiedBenchmarks(&reporter);
   // After a json display the table goes to stderr, keeping stdout parseable.
