@@ -212,8 +212,10 @@ Hit bvh_trace(Ray ray, bool any_hit) {
                  lessThan(abs(ray.d), vec3(1e-20)));
   bvec3 neg = lessThan(inv, vec3(0.0));
   RayTri rt = ray_tri(ray);
-  uint stack_item[BVH_WIDE_STACK];
-  float stack_t[BVH_WIDE_STACK];
+  // One slot more than the stack holds: a push not taken writes to the slot above the top,
+  // which is this spare one when the stack is full.
+  uint stack_item[BVH_WIDE_STACK + 1u];
+  float stack_t[BVH_WIDE_STACK + 1u];
   int sp = 0;
   // A scene without primitives has no nodes (host/accel/bvh.h); its table is bound as a
   // 16-byte buffer, shorter than one node.
@@ -246,21 +248,20 @@ Hit bvh_trace(Ray ray, bool any_hit) {
       bvh_order(k0, i0, k2, i2);
       bvh_order(k1, i1, k3, i3);
       bvh_order(k1, i1, k2, i2);
-      if (k3 < FAR && sp < int(BVH_WIDE_STACK)) {
-        stack_item[sp] = i3;
-        stack_t[sp] = k3;
-        ++sp;
-      }
-      if (k2 < FAR && sp < int(BVH_WIDE_STACK)) {
-        stack_item[sp] = i2;
-        stack_t[sp] = k2;
-        ++sp;
-      }
-      if (k1 < FAR && sp < int(BVH_WIDE_STACK)) {
-        stack_item[sp] = i1;
-        stack_t[sp] = k1;
-        ++sp;
-      }
+      // Push the hit children far to near. Each entry is written whether the push is taken or
+      // not (an untaken one lands in the free slot above the top), so the stores are not under
+      // a branch: lavapipe then stores every lane's value, where under a branch it loads and
+      // stores back the old value of each lane that skips (docs/performance.md, fourteenth
+      // session).
+      stack_item[sp] = i3;
+      stack_t[sp] = k3;
+      sp += (k3 < FAR && sp < int(BVH_WIDE_STACK)) ? 1 : 0;
+      stack_item[sp] = i2;
+      stack_t[sp] = k2;
+      sp += (k2 < FAR && sp < int(BVH_WIDE_STACK)) ? 1 : 0;
+      stack_item[sp] = i1;
+      stack_t[sp] = k1;
+      sp += (k1 < FAR && sp < int(BVH_WIDE_STACK)) ? 1 : 0;
       item = k0 < FAR ? i0 : INVALID_INDEX;
       if (item == INVALID_INDEX || (item & BVH_WIDE_LEAF) != 0u) break;
     }
