@@ -74,7 +74,7 @@ struct Bsdf {
 // inlines every call site: 50 slot_value sites each holding the texture interpreter made the
 // render pipeline take minutes to compile. Without FEATURE_TEXTURES slot_value reads the
 // material table directly and slot_cache is dead.
-vec4 slot_cache[MATERIAL_SLOTS];
+vec4 slot_cache[MATERIAL_SLOTS + 1u];
 
 // The displacement of a bump-mapped material (docs/bump-spec.md 4.3) at the shifted contexts
 // of bump_shifted_ctx: cu (x), cv (y) and, for central differences, the backward ones (z, w);
@@ -113,8 +113,8 @@ void slots_resolve(uint m, SurfacePoint sp) {
     if (shifted) c = bump_shifted_ctx(sp, k);
     uint tex = material_texture(m, slot);
     vec4 v = tex != INVALID_INDEX ? vec4(tex_eval_rgb(tex, c), 0.0) : material_value(m, slot);
+    slot_cache[shifted ? MATERIAL_SLOTS : slot] = v;
     if (!shifted) {
-      slot_cache[slot] = v;
       mask &= mask - 1u;
     } else {
       bump_disp_uv[k] = v.x;

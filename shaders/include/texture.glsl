@@ -441,7 +441,7 @@ int tex_child_count(uint type) {
 }
 
 // The value stack of the texture interpreter (tex_eval_rgb) and its depth.
-vec3 tex_stack[MAX_TEXTURE_STACK];
+vec3 tex_stack[MAX_TEXTURE_STACK + 1u];
 int tex_top;
 
 // Pops the children of instruction i (tex_child_count) into a0, a1, a2 (zero beyond its count);
@@ -458,8 +458,9 @@ bool tex_pop_children(uint i, out vec3 a0, out vec3 a1, out vec3 a2) {
 
 // Pushes v; false if the stack is full (a malformed program).
 bool tex_push(vec3 v) {
+  tex_stack[tex_top] = v;
   if (tex_top >= int(MAX_TEXTURE_STACK)) return false;
-  tex_stack[tex_top++] = v;
+  ++tex_top;
   return true;
 }
 
@@ -476,14 +477,14 @@ vec3 tex_eval_rgb(uint root, TexCtx c) {
   if (i <= root) [[dont_unroll]] while (true) {
     if (!tex_type_large(texture_at(i).type)) [[dont_unroll]] while (true) {
       vec3 a0, a1, a2;
-      if (!tex_pop_children(i, a0, a1, a2) || !tex_push(tex_instruction_small(i, c, a0, a1, a2)))
-        return vec3(0.0);
+      bool ok = tex_pop_children(i, a0, a1, a2);
+      if (!tex_push(tex_instruction_small(i, c, a0, a1, a2)) || !ok) return vec3(0.0);
       if (++i > root || tex_type_large(texture_at(i).type)) break;
     }
     if (i <= root) {
       vec3 a0, a1, a2;
-      if (!tex_pop_children(i, a0, a1, a2) || !tex_push(tex_instruction_large(i, c, a0, a1)))
-        return vec3(0.0);
+      bool ok = tex_pop_children(i, a0, a1, a2);
+      if (!tex_push(tex_instruction_large(i, c, a0, a1)) || !ok) return vec3(0.0);
       ++i;
     }
     if (i > root) break;
