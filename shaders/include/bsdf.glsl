@@ -73,7 +73,7 @@ struct Bsdf {
 // slot's texture program is evaluated in ONE place (slots_resolve's loop), because lavapipe
 // inlines every call site: 50 slot_value sites each holding the texture interpreter made the
 // render pipeline take minutes to compile. Without FEATURE_TEXTURES slot_value reads the
-// material table directly and slot_cache is dead.
+// material table directly and slot_cache is dead. One spare slot (slots_resolve).
 vec4 slot_cache[MATERIAL_SLOTS + 1u];
 
 // The displacement of a bump-mapped material (docs/bump-spec.md 4.3) at the shifted contexts
@@ -113,6 +113,8 @@ void slots_resolve(uint m, SurfacePoint sp) {
     if (shifted) c = bump_shifted_ctx(sp, k);
     uint tex = material_texture(m, slot);
     vec4 v = tex != INVALID_INDEX ? vec4(tex_eval_rgb(tex, c), 0.0) : material_value(m, slot);
+    // Stored on every pass, a shifted one into the spare slot: a store under a branch costs
+    // lavapipe a read-back for each lane it leaves out (docs/performance.md, fourteenth session).
     slot_cache[shifted ? MATERIAL_SLOTS : slot] = v;
     if (!shifted) {
       mask &= mask - 1u;

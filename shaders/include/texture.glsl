@@ -440,7 +440,8 @@ int tex_child_count(uint type) {
   return 0;
 }
 
-// The value stack of the texture interpreter (tex_eval_rgb) and its depth.
+// The value stack of the texture interpreter (tex_eval_rgb) and its depth; one spare slot
+// (tex_push).
 vec3 tex_stack[MAX_TEXTURE_STACK + 1u];
 int tex_top;
 
@@ -456,7 +457,9 @@ bool tex_pop_children(uint i, out vec3 a0, out vec3 a1, out vec3 a2) {
   return ok;
 }
 
-// Pushes v; false if the stack is full (a malformed program).
+// Pushes v; false if the stack is full (a malformed program). The store comes before the test
+// (into the spare slot when full): lavapipe reads back and rewrites the old value of every lane a
+// store's branch leaves out (docs/performance.md, fourteenth session).
 bool tex_push(vec3 v) {
   tex_stack[tex_top] = v;
   if (tex_top >= int(MAX_TEXTURE_STACK)) return false;
