@@ -208,7 +208,7 @@ std::uint32_t Context::memory_type(std::uint32_t bits) const {
   throw std::runtime_error("no host-visible coherent memory type");
 }
 
-Buffer Context::create_buffer(vk::DeviceSize size, vk::BufferUsageFlags usage) {
+Buffer Context::create_buffer(vk::DeviceSize size, vk::BufferUsageFlags usage, bool zeroed) {
   Buffer b;
   b.size = std::max<vk::DeviceSize>(size, 16);
   b.buffer = device.createBuffer({.size = b.size, .usage = usage});
@@ -217,7 +217,7 @@ Buffer Context::create_buffer(vk::DeviceSize size, vk::BufferUsageFlags usage) {
       {.allocationSize = req.size, .memoryTypeIndex = memory_type(req.memoryTypeBits)});
   device.bindBufferMemory(b.buffer, b.memory, 0);
   b.mapped = device.mapMemory(b.memory, 0, VK_WHOLE_SIZE);
-  std::memset(b.mapped, 0, b.size);
+  if (zeroed) std::memset(b.mapped, 0, b.size);
   return b;
 }
 

@@ -53,8 +53,9 @@ class Context {
   /// \brief Names of every Vulkan device the loader reports.
   static std::vector<std::string> list_devices();
 
-  /// \brief Creates a host-visible, mapped storage buffer of at least \p size bytes.
-  Buffer create_buffer(vk::DeviceSize size, vk::BufferUsageFlags usage);
+  /// \brief Creates a host-visible, mapped storage buffer of at least \p size bytes, zeroed
+  ///        unless \p zeroed is false (then the caller zeroes it before a shader reads it).
+  Buffer create_buffer(vk::DeviceSize size, vk::BufferUsageFlags usage, bool zeroed = true);
   /// \brief Releases a buffer created by create_buffer.
   void destroy_buffer(Buffer& buffer);
   /// \brief Records commands with \p record, submits them and waits for completion.

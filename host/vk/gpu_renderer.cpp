@@ -319,10 +319,14 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
           std::to_string(limit) + " bytes) of " + ctx.info().name);
   tables_.resize(BINDING_COUNT);
   for (int i = 0; i < BINDING_COUNT; ++i) {
+    // A table's data is copied over its buffer, which is zeroed only where the copy does not
+    // reach (an empty table, or one under create_buffer's 16 bytes).
+    const bool copied = src[i].data && src[i].bytes >= 16;
     tables_[i] = ctx.create_buffer(
-        src[i].bytes, texel_view_of(i) ? usage | vk::BufferUsageFlagBits::eUniformTexelBuffer : usage);
+        src[i].bytes,
+        texel_view_of(i) ? usage | vk::BufferUsageFlagBits::eUniformTexelBuffer : usage,
+        !copied);
     if (src[i].data && src[i].bytes) std::memcpy(tables_[i].mapped, src[i].data, src[i].bytes);
-    else if (tables_[i].mapped) std::memset(tables_[i].mapped, 0, src[i].bytes);
     device_bytes += tables_[i].size;
   }
   // The texel views: each over its whole table when every table fits the device's texel limit
@@ -363,11 +367,14 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
         {wavefront_capacity, std::uint64_t(slots_) * kWaveSamples,
          ctx.info().max_texel_buffer_elements / gpu::WF_PATH_VEC4S});
     // The wave buffers' allocation is timed with the upload (the tables' buffers), not as
-    // pipeline creation: 0.015 s on lavapipe at 262,144 paths.
+    // pipeline creation. They are zeroed by a pipeline worker once it has no pipeline left to
+    // make (below), not here: 0.04 s of the main thread on lavapipe at 262,144 paths (77 MB),
+    // while the other core waits for the largest shade pipeline (docs/performance.md,
+    // fifteenth session).
     const auto t_alloc = Clock::now();
     const auto usage = vk::BufferUsageFlagBits::eStorageBuffer;
     wf_paths_ = ctx_.create_buffer(std::size_t(wf_capacity_) * gpu::WF_PATH_VEC4S * 16,
-                                   usage | vk::BufferUsageFlagBits::eUniformTexelBuffer);
+                                   usage | vk::BufferUsageFlagBits::eUniformTexelBuffer, false);
     wf_path_view_ = ctx.device.createBufferView({.buffer = wf_paths_.buffer,
                                                  .format = vk::Format::eR32G32B32A32Uint,
                                                  .offset = 0,
@@ -375,7 +382,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     wf_lists_ = ctx_.create_buffer(
         (gpu::WF_COUNTERS + std::size_t(gpu::WF_LISTS + gpu::WF_RADIANCE_WORDS) * wf_capacity_) *
             4,
-        usage);
+        usage, false);
     wave_bytes = wf_paths_.size + wf_lists_.size;
     const double alloc = since(t_alloc);
     seconds_upload += alloc;
@@ -458,7 +465,14 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     std::vector<std::thread> threads;
     for (std::size_t w = 0; w < workers; ++w)
       threads.emplace_back([&, features, features2] {
-        for (std::size_t i; (i = next++) < stages.size();) {
+        for (std::size_t i; (i = next++) <= stages.size();) {
+          // The last job: the wave buffers zeroed (the empty dispatches below read none of
+          // them; every thread is joined before the constructor returns).
+          if (i == stages.size()) {
+            std::memset(wf_paths_.mapped, 0, wf_paths_.size);
+            std::memset(wf_lists_.mapped, 0, wf_lists_.size);
+            break;
+          }
           try {
             const std::uint32_t g = stages[i];
             promised[i].set_value(
