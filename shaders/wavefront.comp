@@ -66,6 +66,14 @@ void wf_store(uint id, PathState ps, Hit hit) {
 }
 
 // Loads path id (wf_store's inverse).
+// The ray of path id (wf_store's first two texels): all that the extend stage reads of a
+// path it resumes.
+Ray wf_load_ray(uint id) {
+  vec4 v0 = uintBitsToFloat(texelFetch(wf_path_texels, int(id * WF_PATH_VEC4S)));
+  vec4 v1 = uintBitsToFloat(texelFetch(wf_path_texels, int(id * WF_PATH_VEC4S + 1u)));
+  return Ray(v0.xyz, v0.w, v1.xyz);
+}
+
 PathState wf_load(uint id, out Hit hit) {
   vec4 v[WF_PATH_VEC4S];
   [[unroll]] for (uint k = 0u; k < WF_PATH_VEC4S; ++k)
@@ -130,12 +138,16 @@ void extend() {
     ps = path_start(px, py, pc.sample_start + t / pc.pixel_total);
   } else {
     id = wf_lists[wf_entry(pc.pad0, gid)];
-    ps = wf_load(id, hit);
+    ps.ray = wf_load_ray(id);
   }
   hit = intersect_closest(ps.ray);
-  ++ps.rays;
   bool escaped = hit.prim == INVALID_INDEX;
   if (escaped && no_feature(FEATURE_LIGHT_INFINITE_IMAGE)) {
+    if (pc.sample_count != 0u) {
+      Hit stale;
+      ps = wf_load(id, stale);
+    }
+    ++ps.rays;  // this stage's ray (a path that goes on: counted by the stage that loads it)
     path_escape(ps);
     wf_finish(id, ps);
     return;
@@ -148,7 +160,12 @@ void extend() {
     if (type >= MATERIAL_TYPE_COUNT) type = MATERIAL_NONE;
     list = WF_LIST_QUEUE + type;
   }
-  wf_store(id, ps, hit);
+  // A started path is stored whole, a resumed one only its hit: the rest of its record is
+  // unchanged (a third of the texels of the stage's per-lane loads and stores otherwise).
+  if (pc.sample_count == 0u)
+    wf_store(id, ps, hit);
+  else
+    wf_paths[id].v[WF_PATH_VEC4S - 1u] = vec4(hit.t, hit.b1, hit.b2, uintBitsToFloat(hit.prim));
   wf_push(list, id);
 }
 
@@ -160,6 +177,7 @@ void shade() {
   uint id = wf_lists[wf_entry(pc.pad0 & 0xffffu, gid)];
   Hit hit;
   PathState ps = wf_load(id, hit);
+  ++ps.rays;  // the extend stage's ray to this hit
   if (path_bounce(ps, hit)) {
     wf_store(id, ps, hit);
     wf_push(pc.pad0 >> 16u, id);
@@ -175,6 +193,7 @@ void escape() {
   uint id = wf_lists[wf_entry(WF_LIST_ESCAPE, gid)];
   Hit hit;
   PathState ps = wf_load(id, hit);
+  ++ps.rays;  // the extend stage's ray that escaped
   path_escape(ps);
   wf_finish(id, ps);
 }
