@@ -65,7 +65,6 @@ void wf_store(uint id, PathState ps, Hit hit) {
       vec4(hit.t, hit.b1, hit.b2, uintBitsToFloat(hit.prim)));
 }
 
-// Loads path id (wf_store's inverse).
 // The ray of path id (wf_store's first two texels): all that the extend stage reads of a
 // path it resumes.
 Ray wf_load_ray(uint id) {
@@ -74,6 +73,7 @@ Ray wf_load_ray(uint id) {
   return Ray(v0.xyz, v0.w, v1.xyz);
 }
 
+// Loads path id (wf_store's inverse).
 PathState wf_load(uint id, out Hit hit) {
   vec4 v[WF_PATH_VEC4S];
   [[unroll]] for (uint k = 0u; k < WF_PATH_VEC4S; ++k)
@@ -161,7 +161,7 @@ void extend() {
     list = WF_LIST_QUEUE + type;
   }
   // A started path is stored whole, a resumed one only its hit: the rest of its record is
-  // unchanged (a third of the texels of the stage's per-lane loads and stores otherwise).
+  // unchanged (it cost 12 texels read and 12 written, each a per-lane access on lavapipe).
   if (pc.sample_count == 0u)
     wf_store(id, ps, hit);
   else
