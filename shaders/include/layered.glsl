@@ -66,11 +66,9 @@ bool bottom_specular(Layers y) { return y.conductor && mf_smooth(y.bottom); }
 // pbrt-v4 IsNonSpecular(bottom.Flags()).
 bool bottom_nonspecular(Layers y) { return y.conductor ? !mf_smooth(y.bottom) : nonzero(y.bottom_a); }
 
-// The bottom interface (pbrt-v4 DiffuseBxDF or ConductorBxDF): Sample_f (smp; reflection, the
-// only kind they have) or f and PDF at (wo, wi), in a BsdfSample as conductor_query.
-BsdfSample bottom_query(Layers y, vec3 wo, vec3 wi, vec2 u, bool smp) {
-  if (has_feature(FEATURE_MAT_COATED_CONDUCTOR) && y.conductor)
-    return conductor_query(y.bottom_a, y.bottom_k, y.bottom, wo, wi, u, smp);
+// The diffuse bottom (pbrt-v4 DiffuseBxDF): Sample_f (smp; reflection, the only kind it has)
+// or f and PDF at (wo, wi), in a BsdfSample as mf_interface_query.
+BsdfSample diffuse_bottom_query(Layers y, vec3 wo, vec3 wi, vec2 u, bool smp) {
   BsdfSample r = no_sample();
   if (no_feature(FEATURE_MAT_COATED_DIFFUSE) || y.conductor) return r;
   if (smp) return diffuse_sample(y.bottom_a * INV_PI, wo, u);
@@ -83,12 +81,19 @@ BsdfSample bottom_query(Layers y, vec3 wo, vec3 wi, vec2 u, bool smp) {
 
 // Sample_f (smp) or f and PDF of the top (pbrt-v4 DielectricBxDF, sample flags sflags) or the
 // bottom interface (sampling it without SAMPLE_R gives none), in a BsdfSample as
-// dielectric_query. The walks call it from one site each (code size, see bsdf_query).
+// mf_interface_query. The walks call it from one site each; with coated conductors in the scene
+// the top and the conductor bottom share one mf_interface_query (one microfacet sample and
+// evaluation where lavapipe ran both interfaces': docs/performance.md, sixteenth session).
 BsdfSample layer_query(Layers y, bool top, vec3 wo, vec3 wi, float uc, vec2 u, bool smp,
                        bool radiance, uint sflags) {
-  if (top) return dielectric_query(y.eta, y.top, wo, wi, uc, u, smp, radiance, sflags);
-  if (smp && (sflags & SAMPLE_R) == 0u) return no_sample();
-  return bottom_query(y, wo, wi, u, smp);
+  if (!top && smp && (sflags & SAMPLE_R) == 0u) return no_sample();
+  bool conductor = !top && y.conductor;
+  if (!top && !(has_feature(FEATURE_MAT_COATED_CONDUCTOR) && conductor))
+    return diffuse_bottom_query(y, wo, wi, u, smp);
+  if (no_feature(FEATURE_MAT_COATED_CONDUCTOR))
+    return dielectric_query(y.eta, y.top, wo, wi, uc, u, smp, radiance, sflags);
+  return mf_interface_query(conductor, y.eta, y.bottom_a, y.bottom_k, top ? y.top : y.bottom, wo,
+                            wi, uc, u, smp, radiance, sflags);
 }
 
 // pbrt-v4's validity test of an interface sample inside the walk (lobes.glsl usable).

@@ -300,52 +300,7 @@ void fresnel_blend_eval(Lobe L, vec3 wo, vec3 wi, out vec3 f, out float pdf) {
   f = fr;
 }
 
-// ---- pbrt-v4 ConductorBxDF ------------------------------------------------------------------
-
-// pbrt-v4 ConductorBxDF: Sample_f (smp; reflection only, u for the microfacet normal) or f and
-// PDF at (wo, wi); f, pdf, wi and flags in the returned sample (flags 0 when smp finds none).
-BsdfSample conductor_query(vec3 eta, vec3 k, MfDist d, vec3 wo, vec3 wi, vec2 u, bool smp) {
-  BsdfSample r = no_sample();
-  bool smooth_ = mf_smooth(d);
-  if (!smp && (smooth_ || !same_hemisphere(wo, wi))) return r;
-  vec3 wm;
-  if (smooth_) {
-    wi = vec3(-wo.x, -wo.y, wo.z);
-    wm = vec3(0.0, 0.0, 1.0);
-  } else if (smp) {
-    if (wo.z == 0.0) return r;
-    wm = mf_sample_wm(d, wo, u);
-    wi = reflect_about(wo, wm);
-    if (!same_hemisphere(wo, wi)) return r;
-  } else {
-    precise vec3 h = wi + wo;
-    if (dot_exact(h, h) == 0.0) return r;
-    wm = safe_normalize(h);
-    if (wm.z < 0.0) wm = -wm;  // PDF's FaceForward; D, G and |wo.wm| do not change
-  }
-  float cos_o = abs(wo.z), cos_i = abs(wi.z);
-  float dwm = abs(dot_exact(wo, wm));
-  vec3 dgp = vec3(0.0, 0.0, 1.0);
-  if (!smooth_) {
-    dgp = mf_dgp(d, wo, wi, wm, wm);
-    r.pdf = dgp.z / (4.0 * dwm);
-  }
-  if (!smooth_ && (cos_i == 0.0 || cos_o == 0.0)) {
-    if (smp) r.pdf = 0.0;
-    return r;
-  }
-  vec3 F = fr_complex(smooth_ ? cos_i : dwm, eta, k);
-  precise vec3 f = smooth_ ? F / cos_i : dgp.x * F * dgp.y / (4.0 * cos_i * cos_o);
-  r.f = f;
-  r.wi = wi;
-  if (smp) {
-    if (smooth_) r.pdf = 1.0;
-    r.flags = BSDF_REFLECTION | (smooth_ ? BSDF_SPECULAR : BSDF_GLOSSY);
-  }
-  return r;
-}
-
-// ---- pbrt-v4 DielectricBxDF (mode: radiance or importance) ---------------------------------
+// ---- pbrt-v4 DielectricBxDF and ConductorBxDF -----------------------------------------------
 
 // BSDF_* flags of pbrt-v4 DielectricBxDF::Flags.
 uint dielectric_flags(float eta, MfDist d) {
@@ -363,85 +318,37 @@ precise float refracted_half_denom(float cos_i, float etap) {
   return t * t;
 }
 
+// mf_interface_query (the interface chosen by its first argument at run time),
+// mf_interface_conductor and mf_interface_dielectric (first argument ignored): mf_interface.glsl.
+#define MF_INTERFACE_NAME mf_interface_query
+#define MF_INTERFACE_KIND 2
+#include "mf_interface.glsl"
+#undef MF_INTERFACE_NAME
+#undef MF_INTERFACE_KIND
+#define MF_INTERFACE_NAME mf_interface_conductor
+#define MF_INTERFACE_KIND 1
+#include "mf_interface.glsl"
+#undef MF_INTERFACE_NAME
+#undef MF_INTERFACE_KIND
+#define MF_INTERFACE_NAME mf_interface_dielectric
+#define MF_INTERFACE_KIND 0
+#include "mf_interface.glsl"
+#undef MF_INTERFACE_NAME
+#undef MF_INTERFACE_KIND
+
+// pbrt-v4 ConductorBxDF: Sample_f (smp; reflection only, u for the microfacet normal) or f and
+// PDF at (wo, wi); f, pdf, wi and flags in the returned sample (flags 0 when smp finds none).
+BsdfSample conductor_query(vec3 eta, vec3 k, MfDist d, vec3 wo, vec3 wi, vec2 u, bool smp) {
+  return mf_interface_conductor(true, 1.0, eta, k, d, wo, wi, 0.0, u, smp, true, SAMPLE_ALL);
+}
+
 // pbrt-v4 DielectricBxDF (f unscaled): Sample_f (smp, with uc, u and sample flags sflags) or f
 // and PDF (with sflags) at (wo, wi); radiance or importance mode. f (in .x), pdf, wi, flags
-// and etap in the returned sample (flags 0 when smp finds none). One function for both, with
-// one microfacet evaluation, so that every call site inlines the dielectric once.
+// and etap in the returned sample (flags 0 when smp finds none).
 BsdfSample dielectric_query(float eta, MfDist d, vec3 wo, vec3 wi, float uc, vec2 u, bool smp,
                             bool radiance, uint sflags) {
-  BsdfSample r = no_sample();
-  bool smooth_ = eta == 1.0 || mf_smooth(d);
-  if (!smp && smooth_) return r;
-  vec3 wm = vec3(0.0, 0.0, 1.0);
-  float etap = 1.0;
-  bool reflect;
-  if (smp) {
-    if (!smooth_) wm = mf_sample_wm(d, wo, u);
-  } else {
-    // Generalized half vector (pbrt-v4 DielectricBxDF::f / PDF).
-    float cos_o = wo.z, cos_i = wi.z;
-    reflect = cos_i * cos_o > 0.0;
-    if (!reflect) etap = cos_o > 0.0 ? eta : 1.0 / eta;
-    precise vec3 h = wi * etap + wo;
-    if (cos_i == 0.0 || cos_o == 0.0 || dot_exact(h, h) == 0.0) return r;
-    wm = safe_normalize(h);
-    if (wm.z < 0.0) wm = -wm;
-    // Discard back-facing microfacets.
-    if (dot_exact(wm, wi) * cos_i < 0.0 || dot_exact(wm, wo) * cos_o < 0.0) return r;
-  }
-  precise float dwo = dot_exact(wo, wm);
-  precise float R = fr_dielectric(dwo, eta);
-  precise float T = 1.0 - R;
-  float pr = (sflags & SAMPLE_R) != 0u ? R : 0.0;
-  float pt = (sflags & SAMPLE_T) != 0u ? T : 0.0;
-  bool no_choice = pr == 0.0 && pt == 0.0;  // pdf 0 (f does not depend on sflags)
-  if (smp && no_choice) return r;
-  if (smp) {
-    reflect = uc < pr / (pr + pt);
-    if (reflect) {
-      wi = smooth_ ? vec3(-wo.x, -wo.y, wo.z) : reflect_about(wo, wm);
-      if (!smooth_ && !same_hemisphere(wo, wi)) return r;
-    } else {
-      bool ok = refract_v4(wo, wm, eta, etap, wi);
-      if (!ok || (!smooth_ && (same_hemisphere(wo, wi) || wi.z == 0.0))) return r;
-    }
-    r.wi = wi;
-    r.eta = etap;
-    r.flags = (reflect ? BSDF_REFLECTION : BSDF_TRANSMISSION) |
-              (smooth_ ? BSDF_SPECULAR : BSDF_GLOSSY);
-    if (smooth_) {
-      // Perfect specular reflection or transmission.
-      precise float fs = (reflect ? R : T) / abs(wi.z);
-      if (!reflect && radiance) fs /= etap * etap;
-      r.f = vec3(fs);
-      r.pdf = (reflect ? pr : pt) / (pr + pt);
-      return r;
-    }
-  }
-  vec3 dgp = mf_dgp(d, wo, wi, wm, wm);
-  precise float dwi = dot_exact(wi, wm);
-  // Transmission's (dwi + dwo / etap)^2: a sample's from Snell's law, f and PDF's as pbrt-v4.
-  precise float tsum = dwi + dwo / etap;
-  precise float denom = smp ? refracted_half_denom(abs(dwo), etap) : tsum * tsum;
-  if (smp && !reflect && !(denom > 0.0)) return no_sample();
-  precise float f;
-  if (no_choice) {
-    r.pdf = 0.0;
-  } else if (reflect) {
-    r.pdf = dgp.z / (4.0 * abs(dwo)) * pr / (pr + pt);
-  } else {
-    r.pdf = dgp.z * (abs(dwi) / denom) * pt / (pr + pt);
-  }
-  if (reflect) {
-    f = smp ? dgp.x * dgp.y * R / (4.0 * wi.z * wo.z)
-            : dgp.x * dgp.y * R / abs(4.0 * wi.z * wo.z);
-  } else {
-    f = smp ? T * dgp.x * dgp.y * abs(dwi * dwo / (wi.z * wo.z * denom))
-            : dgp.x * T * dgp.y * abs(dwi * dwo / (denom * wi.z * wo.z));
-    if (radiance) f /= etap * etap;
-  }
-  r.f = vec3(f);
-  return r;
+  return mf_interface_dielectric(false, eta, vec3(0.0), vec3(0.0), d, wo, wi, uc, u, smp,
+                                 radiance, sflags);
 }
 
 // ---- pbrt-v4 ThinDielectricBxDF -------------------------------------------------------------
