@@ -142,6 +142,15 @@ vec3 hg_sample(vec3 wo, float g, vec2 u, out float pdf) {
 // pbrt-v4 PowerHeuristic(1, f, 1, g) (0 when both are 0, 1 when f^2 overflows).
 float layer_power(float f, float g) { return power_heuristic(f, g); }
 
+// The height after a free flight along w from z (pbrt-v4's dz = SampleExponential(u,
+// sigma_t / |w.z|), sigma_t = 1), for f's walk. (A function of its own, as layer_pdf_mix:
+// glslang's precise propagation through f's event loop exhausts memory.)
+precise float layer_step_z(float z, vec3 w, float u) {
+  float sigma_t = 1.0;
+  float dz = -log(1.0 - u) / (sigma_t / abs(w.z));
+  return w.z > 0.0 ? (z + dz) : (z - dz);
+}
+
 // pbrt-v4 LayeredBxDF::f (radiance mode) with random numbers from stream `key`. Two-sided:
 // wo below is mirrored; light entering through the top can only leave through it (the bottom
 // does not transmit), so f is 0 for wi on the other side (pbrt-v4's estimate is 0 there too).
@@ -163,140 +172,139 @@ vec3 layered_f(Lobe L, vec3 wo, vec3 wi, uvec4 key) {
   // reason (a `continue` jumps to the test).
   int s = 0;
   if (y.n_samples > 0) [[dont_unroll]] while (true) {
-    // k = -1 (first sample only): reflection at the entrance, nSamples f_top(wo, wi);
-    // k = 0, 1: transmission through the top for wo (radiance) and for wi (importance).
+    // Step -1 is the entrance, through the same event loop (and the same layer_query call
+    // site, so a pipeline inlines one interface fewer) as the walk's steps: e = -3 (first
+    // sample only), reflection at the entrance, nSamples f_top(wo, wi); e = -2, -1,
+    // transmission through the top for wo (radiance) and for wi (importance).
     BsdfSample wos, wis;
-    bool ok = true;
-    int k = s == 0 ? -1 : 0;
+    vec3 beta = vec3(0.0);
+    float z = y.thickness;
+    vec3 w = vec3(0.0);
+    int depth = -1;
     [[dont_unroll]] while (true) {
-      vec3 ur = k < 0 ? vec3(0.0) : layer_rn(key, j, 3u);
-      BsdfSample t = dielectric_query(y.eta, y.top, k == 1 ? wi : wo, wi, ur.x, ur.yz, k >= 0,
-                                      k != 1, k < 0 ? SAMPLE_ALL : SAMPLE_T);
-      if (k < 0) {
-        f = float(y.n_samples) * vec3(t.f.x);
-      } else if (!walk_sample_ok(t)) {
-        ok = false;
-        break;
-      } else if (k == 0) {
-        wos = t;
+      // NEE through the top along w after a scattering event: exit_nee (done at e = 2 below).
+      bool exit_nee = false, exit_mis = true;
+      float exit_pdf_s = 0.0, exit_dz = 0.0;
+      vec3 exit_w = vec3(0.0);
+      bool scattered = false;
+      bool next = false;  // pbrt-v4's `continue`: on to the next step
+      if (depth < 0) {
+      } else if (!has_albedo) {
+        z = (z == y.thickness) ? 0.0 : y.thickness;
+        beta *= layer_tr(y.thickness, w);
       } else {
-        wis = t;
-      }
-      ++k;
-      if (k >= 2) break;
-    }
-    if (ok) {
-      precise vec3 beta = wos.f * abs(wos.wi.z) / wos.pdf;
-      float z = y.thickness;
-      vec3 w = wos.wi;
-      int depth = 0;
-      if (y.max_depth > 0) [[dont_unroll]] while (true) {
-        // NEE through the top along w after a scattering event: exit_nee (done at e = 2 below).
-        bool exit_nee = false, exit_mis = true;
-        float exit_pdf_s = 0.0, exit_dz = 0.0;
-        vec3 exit_w = vec3(0.0);
-        bool scattered = false;
-        bool next = false;  // pbrt-v4's `continue`: on to the next step
-        if (!has_albedo) {
-          z = (z == y.thickness) ? 0.0 : y.thickness;
-          beta *= layer_tr(y.thickness, w);
-        } else {
-          float sigma_t = 1.0;
-          precise float dz = -log(1.0 - layer_rn(key, j, 1u).x) / (sigma_t / abs(w.z));
-          precise float zp = w.z > 0.0 ? (z + dz) : (z - dz);
-          if (z == zp) {
+        float zp = layer_step_z(z, w, layer_rn(key, j, 1u).x);
+        if (z == zp) {
+          next = true;
+        } else if (0.0 < zp && zp < y.thickness) {
+          // Scattering in the medium: NEE along the presampled wis through the top.
+          float wt = 1.0;
+          float ph = hg_p(-w, -wis.wi, y.g);
+          if (!top_spec) wt = layer_power(wis.pdf, ph);
+          f += beta * y.albedo * ph * wt * layer_tr(zp - exit_z, wis.wi) * wis.f / wis.pdf;
+          vec3 ur = layer_rn(key, j, 2u);
+          float ps_pdf;
+          vec3 ps_wi = hg_sample(-w, y.g, ur.xy, ps_pdf);
+          if (ps_pdf == 0.0 || ps_wi.z == 0.0) {
             next = true;
-          } else if (0.0 < zp && zp < y.thickness) {
-            // Scattering in the medium: NEE along the presampled wis through the top.
-            float wt = 1.0;
-            float ph = hg_p(-w, -wis.wi, y.g);
-            if (!top_spec) wt = layer_power(wis.pdf, ph);
-            f += beta * y.albedo * ph * wt * layer_tr(zp - exit_z, wis.wi) * wis.f / wis.pdf;
-            vec3 ur = layer_rn(key, j, 2u);
-            float ps_pdf;
-            vec3 ps_wi = hg_sample(-w, y.g, ur.xy, ps_pdf);
-            if (ps_pdf == 0.0 || ps_wi.z == 0.0) {
-              next = true;
-            } else {
-              beta *= y.albedo * ps_pdf / ps_pdf;
-              w = ps_wi;
-              z = zp;
-              if (((z < exit_z && w.z > 0.0) || (z > exit_z && w.z < 0.0)) && !top_spec) {
-                exit_nee = true;
-                exit_pdf_s = ps_pdf;
-                exit_dz = zp - exit_z;
-                exit_w = ps_wi;
-              }
-              scattered = true;
-            }
           } else {
-            z = clamp(zp, 0.0, y.thickness);
+            beta *= y.albedo * ps_pdf / ps_pdf;
+            w = ps_wi;
+            z = zp;
+            if (((z < exit_z && w.z > 0.0) || (z > exit_z && w.z < 0.0)) && !top_spec) {
+              exit_nee = true;
+              exit_pdf_s = ps_pdf;
+              exit_dz = zp - exit_z;
+              exit_w = ps_wi;
+            }
+            scattered = true;
           }
+        } else {
+          z = clamp(zp, 0.0, y.thickness);
         }
-        bool stop = false;
-        if (!next) {
-          // The interface events of this step, through one layer_query call site: e = 0, NEE
-          // along the presampled wis at the bottom; e = 1, sampling the interface at z
-          // (reflection); e = 2, 3, NEE through the top towards wi along the new w: e = 2, the
-          // density with which the wis strategy produces -w, PDF(wi, -w) in importance mode
-          // (MIS weight; pbrt-v4 uses PDF(-w, wi), see docs/materials-spec.md 2.3), e = 3,
-          // f(-w, wi).
-          bool at_exit = z == exit_z;
-          float exit_pdf = 0.0;
-          int e = scattered ? 2 : 0;
-          [[dont_unroll]] while (true) {
-            bool skip = (e == 0 && (at_exit || bot_spec)) || (e >= 2 && !exit_nee) ||
-                        (e == 2 && !exit_mis);
-            if (!skip) {
-              vec3 ur = e == 1 ? layer_rn(key, j, 3u) : vec3(0.0);
-              // e = 2 with --layered-mis pbrt-v4: pbrt-v4's PDF(-w, wi) in radiance mode instead.
-              bool nee_pdf = e == 2 && !y.pbrt_mis;
-              BsdfSample t = layer_query(y, e >= 2 || (e == 1 && at_exit), nee_pdf ? wi : -w,
-                                         e == 0 ? -wis.wi : (nee_pdf ? -w : wi), ur.x, ur.yz,
-                                         e == 1, !nee_pdf, e >= 2 ? SAMPLE_T : SAMPLE_R);
-              if (e == 0) {
+      }
+      bool stop = false;
+      if (!next) {
+        // The interface events of this step, through one layer_query call site: the
+        // entrance's (e < 0, above); e = 0, NEE along the presampled wis at the bottom; e = 1,
+        // sampling the interface at z (reflection); e = 2, 3, NEE through the top towards wi
+        // along the new w: e = 2, the density with which the wis strategy produces -w,
+        // PDF(wi, -w) in importance mode (MIS weight; pbrt-v4 uses PDF(-w, wi), see
+        // docs/materials-spec.md 2.3), e = 3, f(-w, wi).
+        bool at_exit = z == exit_z;
+        float exit_pdf = 0.0;
+        int e = depth < 0 ? (s == 0 ? -3 : -2) : (scattered ? 2 : 0);
+        [[dont_unroll]] while (true) {
+          bool skip = (e == 0 && (at_exit || bot_spec)) || (e >= 2 && !exit_nee) ||
+                      (e == 2 && !exit_mis);
+          if (!skip) {
+            bool entrance = e < 0;
+            vec3 ur = (e == 1 || e == -2 || e == -1) ? layer_rn(key, j, 3u) : vec3(0.0);
+            // e = 2 with --layered-mis pbrt-v4: pbrt-v4's PDF(-w, wi) in radiance mode instead.
+            bool nee_pdf = e == 2 && !y.pbrt_mis;
+            vec3 qwo = entrance ? (e == -1 ? wi : wo) : (nee_pdf ? wi : -w);
+            vec3 qwi = entrance ? wi : (e == 0 ? -wis.wi : (nee_pdf ? -w : wi));
+            bool smp = entrance ? e >= -2 : e == 1;
+            bool radiance = entrance ? e != -1 : !nee_pdf;
+            uint fl = entrance ? (e == -3 ? SAMPLE_ALL : SAMPLE_T) : (e >= 2 ? SAMPLE_T : SAMPLE_R);
+            BsdfSample t = layer_query(y, entrance || e >= 2 || (e == 1 && at_exit), qwo, qwi,
+                                       ur.x, ur.yz, smp, radiance, fl);
+            if (e == -3) {
+              f = float(y.n_samples) * vec3(t.f.x);
+            } else if (entrance) {
+              if (!walk_sample_ok(t)) {
+                stop = true;
+                break;
+              }
+              if (e == -2) wos = t;
+              else wis = t;
+            } else if (e == 0) {
+              float wt = 1.0;
+              if (!top_spec) wt = layer_power(wis.pdf, t.pdf);
+              f += beta * t.f * abs(wis.wi.z) * wt * layer_tr(y.thickness, wis.wi) * wis.f /
+                   wis.pdf;
+            } else if (e == 1) {
+              if (!walk_sample_ok(t)) {
+                stop = true;
+                break;
+              }
+              beta *= t.f * abs(t.wi.z) / t.pdf;
+              w = t.wi;
+              if (!at_exit && !top_spec) {
+                exit_nee = true;
+                exit_mis = !bot_spec;
+                exit_pdf_s = t.pdf;
+                exit_dz = y.thickness;
+                exit_w = t.wi;
+              }
+            } else if (e == 2) {
+              exit_pdf = t.pdf;
+            } else {
+              float f_exit = t.f.x;
+              if (f_exit != 0.0) {
                 float wt = 1.0;
-                if (!top_spec) wt = layer_power(wis.pdf, t.pdf);
-                f += beta * t.f * abs(wis.wi.z) * wt * layer_tr(y.thickness, wis.wi) * wis.f /
-                     wis.pdf;
-              } else if (e == 1) {
-                if (!walk_sample_ok(t)) {
-                  stop = true;
-                  break;
-                }
-                beta *= t.f * abs(t.wi.z) / t.pdf;
-                w = t.wi;
-                if (!at_exit && !top_spec) {
-                  exit_nee = true;
-                  exit_mis = !bot_spec;
-                  exit_pdf_s = t.pdf;
-                  exit_dz = y.thickness;
-                  exit_w = t.wi;
-                }
-              } else if (e == 2) {
-                exit_pdf = t.pdf;
-              } else {
-                float f_exit = t.f.x;
-                if (f_exit != 0.0) {
-                  float wt = 1.0;
-                  if (exit_mis) wt = layer_power(exit_pdf_s, exit_pdf);
-                  f += beta * layer_tr(exit_dz, exit_w) * f_exit * wt;
-                }
+                if (exit_mis) wt = layer_power(exit_pdf_s, exit_pdf);
+                f += beta * layer_tr(exit_dz, exit_w) * f_exit * wt;
               }
             }
-            ++e;
-            if (e >= 4 || (e >= 2 && !exit_nee)) break;
           }
+          ++e;
+          if ((depth < 0 && e == 0) || e >= 4 || (e >= 2 && !exit_nee)) break;
         }
-        if (stop) break;
-        ++depth;
-        if (depth >= y.max_depth) break;
-        // Russian roulette for the next step (pbrt-v4's at its start: the same draw, in order)
-        if (depth > 3 && max_component(beta) < 0.25) {
-          float q = max(0.0, 1.0 - max_component(beta));
-          if (layer_rn(key, j, 1u).x < q) break;
-          beta /= 1.0 - q;
-        }
+      }
+      if (stop) break;
+      if (depth < 0) {
+        // Into the slab along the sampled transmission (pbrt-v4's walk start).
+        beta = wos.f * abs(wos.wi.z) / wos.pdf;
+        w = wos.wi;
+      }
+      ++depth;
+      if (depth >= y.max_depth) break;
+      // Russian roulette for the next step (pbrt-v4's at its start: the same draw, in order)
+      if (depth > 3 && max_component(beta) < 0.25) {
+        float q = max(0.0, 1.0 - max_component(beta));
+        if (layer_rn(key, j, 1u).x < q) break;
+        beta /= 1.0 - q;
       }
     }
     ++s;
