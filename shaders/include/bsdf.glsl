@@ -634,12 +634,8 @@ void lobe_query(Lobe L, uint q, vec3 wo, vec3 wi, vec3 u, uvec4 stream, uvec4 pd
     case LOBE_LAYERED_DIFFUSE:
     case LOBE_LAYERED_CONDUCTOR:
       if (has_feature(LOBE_FEATURES_LAYERED)) {
-        if (smp) {
-          bs = layered_sample(L, wo, u.x, u.yz, stream);
-        } else {
-          if ((q & QUERY_F) != 0u) f = layered_f(L, wo, wi, stream);
-          if ((q & QUERY_PDF) != 0u) pdf = layered_pdf(L, wo, wi, pdf_stream);
-        }
+        layered_query(L, smp, (q & QUERY_F) != 0u, (q & QUERY_PDF) != 0u, wo, wi, u.x, u.yz,
+                      stream, pdf_stream, f, pdf, bs);
       }
       break;
 #endif

@@ -81,7 +81,7 @@ BsdfSample diffuse_bottom_query(Layers y, vec3 wo, vec3 wi, vec2 u, bool smp) {
 
 // Sample_f (smp) or f and PDF of the top (pbrt-v4 DielectricBxDF, sample flags sflags) or the
 // bottom interface (sampling it without SAMPLE_R gives none), in a BsdfSample as
-// mf_interface_query. The walks call it from one site each; with coated conductors in the scene
+// mf_interface_query. The walks call it from one site (layered_query); with coated conductors in the scene
 // the top and the conductor bottom share one mf_interface_query (one microfacet sample and
 // evaluation where lavapipe ran both interfaces': docs/performance.md, sixteenth session).
 BsdfSample layer_query(Layers y, bool top, vec3 wo, vec3 wi, float uc, vec2 u, bool smp,
@@ -143,75 +143,146 @@ vec3 hg_sample(vec3 wo, float g, vec2 u, out float pdf) {
 float layer_power(float f, float g) { return power_heuristic(f, g); }
 
 // The height after a free flight along w from z (pbrt-v4's dz = SampleExponential(u,
-// sigma_t / |w.z|), sigma_t = 1), for f's walk. (A function of its own, as layer_pdf_mix:
-// glslang's precise propagation through f's event loop exhausts memory.)
+// sigma_t / |w.z|), sigma_t = 1), for the walks. (A function of its own, as layer_pdf_mix:
+// glslang's precise propagation through the walks' event loop exhausts memory.)
 precise float layer_step_z(float z, vec3 w, float u) {
   float sigma_t = 1.0;
   float dz = -log(1.0 - u) / (sigma_t / abs(w.z));
   return w.z > 0.0 ? (z + dz) : (z - dz);
 }
 
-// pbrt-v4 LayeredBxDF::f (radiance mode) with random numbers from stream `key`. Two-sided:
-// wo below is mirrored; light entering through the top can only leave through it (the bottom
-// does not transmit), so f is 0 for wi on the other side (pbrt-v4's estimate is 0 there too).
-vec3 layered_f(Lobe L, vec3 wo, vec3 wi, uvec4 key) {
-  if (wo.z < 0.0) {
+// Rescales Sample_f's (f, pdf) by one power of two (exact: f / pdf keeps every bit) to pdf in
+// [0.5, 1) when pdf leaves [2^-32, 2^32], so that a long walk over sharp lobes neither
+// overflows (f = pdf = inf) nor underflows (docs/materials-spec.md 2.3; the pdf is proportional).
+void layer_renormalize(inout vec3 f, inout float pdf) {
+  if (!(pdf > 4294967296.0 || pdf < 2.3283064365386963e-10) || pdf == 0.0) return;
+  int e;
+  frexp(pdf, e);
+  f = ldexp(f, ivec3(-e));
+  pdf = ldexp(pdf, -e);
+}
+
+// pbrt-v4 LayeredBxDF::PDF's final Lerp(0.9, 1 / (4 pi), estimate). (A function of its own:
+// glslang's precise propagation through the walks' loops exhausts memory.)
+precise float layer_pdf_mix(float estimate) { return (1.0 - 0.9) * INV_4PI + 0.9 * estimate; }
+
+// Sample_f's Russian roulette weight, max(f) / pdf (a function of its own, as layer_step_z).
+precise float layer_rr_beta(vec3 f, float pdf) { return max_component(f) / pdf; }
+
+// The walks of layered_query, in the order one query runs them.
+const int LAYER_WALK_F = 0;       // pbrt-v4 LayeredBxDF::f
+const int LAYER_WALK_PDF = 1;     // pbrt-v4 LayeredBxDF::PDF
+const int LAYER_WALK_SAMPLE = 2;  // pbrt-v4 LayeredBxDF::Sample_f
+
+// pbrt-v4 LayeredBxDF::f, PDF and Sample_f (radiance mode) in one loop nest with one
+// layer_query call site, so that a pipeline inlines one interface for the three (lavapipe runs
+// every branch: three walks were three interfaces' code, and each walk's loops ran at least
+// one pass at every query; docs/performance.md, seventeenth session). smp: Sample_f (into bs;
+// the first interface sample uses (uc, u), the walk the stream `key`; pdf_is_proportional on
+// every sample); else f (want_f, from stream `key`) and PDF (want_pdf, from stream `pdf_key`),
+// each walk drawing from the start of its stream. Two-sided: wo below is mirrored; light
+// entering through the top can only leave through it (the bottom does not transmit), so f is
+// 0 for wi on the other side and PDF the mixture's 0.1 / (4 pi) (pbrt-v4's estimates are 0
+// there too). Each walk's steps are pbrt-v4's, in its order:
+// - f: per sample, step -1 is the entrance (e = -3, first sample only: reflection at the
+//   entrance, nSamples f_top(wo, wi); e = -2, -1: transmission through the top for wo
+//   (radiance) and wi (importance)), then the walk's steps, each a free flight (or the slab
+//   crossed) and its interface events: e = 0, NEE along the presampled wis at the bottom;
+//   e = 1, sampling the interface at z (reflection); e = 2, 3, NEE through the top towards wi
+//   along the new w: e = 2, the density with which the wis strategy produces -w, PDF(wi, -w)
+//   in importance mode (MIS weight; pbrt-v4 uses PDF(-w, wi), see docs/materials-spec.md 2.3),
+//   e = 3, f(-w, wi).
+// - PDF: per sample, one step of events (the TRT term): e = -1 (first sample only),
+//   reflection pdf of the entrance x nSamples; e = 0, 1, transmission through the top for wo
+//   and wi (both always drawn); e = 2, bottom pdf(-wos.wi, -wis.wi); e = 3, bottom sample at
+//   -wos.wi; e = 4, top pdf(-rs.wi, wi).
+// - Sample_f: one sample, each step one interface sample (e = 1) after its free flight.
+// The loops test their end at the end of a pass, not at the start of the next: lavapipe runs
+// a pass that any lane enters in full, so a `for` loop's closing test cost a whole pass of its
+// body (docs/performance.md, seventh session). Their `continue`s are ifs for the same reason.
+void layered_query(Lobe L, bool smp, bool want_f, bool want_pdf, vec3 wo, vec3 wi, float uc,
+                   vec2 u, uvec4 key, uvec4 pdf_key, out vec3 f_out, out float pdf_out,
+                   out BsdfSample bs_out) {
+  f_out = vec3(0.0);
+  pdf_out = 0.0;
+  bs_out = no_sample();
+  bool flip = wo.z < 0.0;
+  if (flip) {
     wo = -wo;
     wi = -wi;
   }
-  if (!same_hemisphere(wo, wi)) return vec3(0.0);
+  bool same = same_hemisphere(wo, wi);
+  if (want_pdf) pdf_out = layer_pdf_mix(0.0);  // wi on the other side, or no samples
   Layers y = layers_of(L);
   bool top_spec = mf_smooth(y.top), bot_spec = bottom_specular(y);
   bool has_albedo = nonzero(y.albedo);
   float exit_z = y.thickness;  // the exit interface is the top
+  int mode = smp ? LAYER_WALK_SAMPLE
+                 : (want_f && same ? LAYER_WALK_F : (want_pdf && same ? LAYER_WALK_PDF : -1));
+  uvec4 walk_key = mode == LAYER_WALK_PDF ? pdf_key : key;
   uint j = 0u;
-  vec3 f = vec3(0.0);
-  // The loops below test their end at the end of a pass, not at the start of the next: lavapipe
-  // runs a pass that any lane enters in full, so a `for` loop's closing test cost a whole pass
-  // of its body (docs/performance.md, seventh session). Their `continue`s are ifs for the same
-  // reason (a `continue` jumps to the test).
   int s = 0;
-  if (y.n_samples > 0) [[dont_unroll]] while (true) {
-    // Step -1 is the entrance, through the same event loop (and the same layer_query call
-    // site, so a pipeline inlines one interface fewer) as the walk's steps: e = -3 (first
-    // sample only), reflection at the entrance, nSamples f_top(wo, wi); e = -2, -1,
-    // transmission through the top for wo (radiance) and for wi (importance).
-    BsdfSample wos, wis;
+  vec3 f = vec3(0.0);    // f's sum
+  float pdf_sum = 0.0;   // PDF's sum
+  vec3 sf = vec3(1.0);   // Sample_f's f and pdf
+  float spdf = 1.0;
+  bool specular_path = false;
+  if (mode >= 0 && (mode == LAYER_WALK_SAMPLE || y.n_samples > 0)) [[dont_unroll]] while (true) {
+    BsdfSample wos, wis, rs;
     vec3 beta = vec3(0.0);
     float z = y.thickness;
-    vec3 w = vec3(0.0);
+    vec3 w = mode == LAYER_WALK_SAMPLE ? -wo : vec3(0.0);  // Sample_f's step -1 samples at wo
     int depth = -1;
+    float r_pdf = 0.0, t_pdf = 0.0;  // PDF's
+    bool wos_ok = false, wis_ok = false, rs_ok = false;
     [[dont_unroll]] while (true) {
-      // NEE through the top along w after a scattering event: exit_nee (done at e = 2 below).
+      // f's NEE through the top along w after a scattering event: exit_nee (done at e = 2).
       bool exit_nee = false, exit_mis = true;
       float exit_pdf_s = 0.0, exit_dz = 0.0;
       vec3 exit_w = vec3(0.0);
       bool scattered = false;
       bool next = false;  // pbrt-v4's `continue`: on to the next step
+      bool stop = false;  // the walk ends (Sample_f: no sample)
       if (depth < 0) {
+      } else if (mode == LAYER_WALK_SAMPLE && w.z == 0.0) {
+        next = stop = true;
       } else if (!has_albedo) {
         z = (z == y.thickness) ? 0.0 : y.thickness;
-        beta *= layer_tr(y.thickness, w);
+        float tr = layer_tr(y.thickness, w);
+        if (mode == LAYER_WALK_SAMPLE) sf *= tr;
+        else beta *= tr;
       } else {
-        float zp = layer_step_z(z, w, layer_rn(key, j, 1u).x);
+        float zp = layer_step_z(z, w, layer_rn(walk_key, j, 1u).x);
         if (z == zp) {
           next = true;
+          stop = mode == LAYER_WALK_SAMPLE;
         } else if (0.0 < zp && zp < y.thickness) {
-          // Scattering in the medium: NEE along the presampled wis through the top.
-          float wt = 1.0;
-          float ph = hg_p(-w, -wis.wi, y.g);
-          if (!top_spec) wt = layer_power(wis.pdf, ph);
-          f += beta * y.albedo * ph * wt * layer_tr(zp - exit_z, wis.wi) * wis.f / wis.pdf;
-          vec3 ur = layer_rn(key, j, 2u);
+          // Scattering in the medium; f: NEE along the presampled wis through the top first.
+          if (mode == LAYER_WALK_F) {
+            float wt = 1.0;
+            float ph = hg_p(-w, -wis.wi, y.g);
+            if (!top_spec) wt = layer_power(wis.pdf, ph);
+            f += beta * y.albedo * ph * wt * layer_tr(zp - exit_z, wis.wi) * wis.f / wis.pdf;
+          }
+          vec3 ur = layer_rn(walk_key, j, 2u);
           float ps_pdf;
           vec3 ps_wi = hg_sample(-w, y.g, ur.xy, ps_pdf);
           if (ps_pdf == 0.0 || ps_wi.z == 0.0) {
             next = true;
+            stop = mode == LAYER_WALK_SAMPLE;
           } else {
-            beta *= y.albedo * ps_pdf / ps_pdf;
+            if (mode == LAYER_WALK_SAMPLE) {
+              sf *= y.albedo * ps_pdf;
+              spdf *= ps_pdf;
+              specular_path = false;
+              next = true;  // no interface event in this step
+            } else {
+              beta *= y.albedo * ps_pdf / ps_pdf;
+            }
             w = ps_wi;
             z = zp;
-            if (((z < exit_z && w.z > 0.0) || (z > exit_z && w.z < 0.0)) && !top_spec) {
+            if (mode == LAYER_WALK_F &&
+                ((z < exit_z && w.z > 0.0) || (z > exit_z && w.z < 0.0)) && !top_spec) {
               exit_nee = true;
               exit_pdf_s = ps_pdf;
               exit_dz = zp - exit_z;
@@ -223,33 +294,107 @@ vec3 layered_f(Lobe L, vec3 wo, vec3 wi, uvec4 key) {
           z = clamp(zp, 0.0, y.thickness);
         }
       }
-      bool stop = false;
       if (!next) {
-        // The interface events of this step, through one layer_query call site: the
-        // entrance's (e < 0, above); e = 0, NEE along the presampled wis at the bottom; e = 1,
-        // sampling the interface at z (reflection); e = 2, 3, NEE through the top towards wi
-        // along the new w: e = 2, the density with which the wis strategy produces -w,
-        // PDF(wi, -w) in importance mode (MIS weight; pbrt-v4 uses PDF(-w, wi), see
-        // docs/materials-spec.md 2.3), e = 3, f(-w, wi).
+        // The interface events of this step, through one layer_query call site.
         bool at_exit = z == exit_z;
         float exit_pdf = 0.0;
-        int e = depth < 0 ? (s == 0 ? -3 : -2) : (scattered ? 2 : 0);
+        int e = mode == LAYER_WALK_PDF      ? (s == 0 ? -1 : 0)
+                : mode == LAYER_WALK_SAMPLE ? 1
+                : depth < 0                 ? (s == 0 ? -3 : -2)
+                                            : (scattered ? 2 : 0);
         [[dont_unroll]] while (true) {
-          bool skip = (e == 0 && (at_exit || bot_spec)) || (e >= 2 && !exit_nee) ||
-                      (e == 2 && !exit_mis);
+          bool f_walk = mode == LAYER_WALK_F, pdf_walk = mode == LAYER_WALK_PDF;
+          bool skip = f_walk && ((e == 0 && (at_exit || bot_spec)) || (e >= 2 && !exit_nee) ||
+                                 (e == 2 && !exit_mis));
           if (!skip) {
-            bool entrance = e < 0;
-            vec3 ur = (e == 1 || e == -2 || e == -1) ? layer_rn(key, j, 3u) : vec3(0.0);
-            // e = 2 with --layered-mis pbrt-v4: pbrt-v4's PDF(-w, wi) in radiance mode instead.
-            bool nee_pdf = e == 2 && !y.pbrt_mis;
-            vec3 qwo = entrance ? (e == -1 ? wi : wo) : (nee_pdf ? wi : -w);
-            vec3 qwi = entrance ? wi : (e == 0 ? -wis.wi : (nee_pdf ? -w : wi));
-            bool smp = entrance ? e >= -2 : e == 1;
-            bool radiance = entrance ? e != -1 : !nee_pdf;
-            uint fl = entrance ? (e == -3 ? SAMPLE_ALL : SAMPLE_T) : (e >= 2 ? SAMPLE_T : SAMPLE_R);
-            BsdfSample t = layer_query(y, entrance || e >= 2 || (e == 1 && at_exit), qwo, qwi,
-                                       ur.x, ur.yz, smp, radiance, fl);
-            if (e == -3) {
+            bool entrance = f_walk && e < 0;
+            bool draw = pdf_walk ? (e == 0 || e == 1 || e == 3)
+                        : f_walk ? (e == 1 || e == -2 || e == -1)
+                                 : depth >= 0;
+            vec3 ur = draw ? layer_rn(walk_key, j, 3u) : vec3(uc, u);
+            // f's e = 2 with --layered-mis pbrt-v4: pbrt-v4's PDF(-w, wi) in radiance mode.
+            bool nee_pdf = f_walk && e == 2 && !y.pbrt_mis;
+            bool top;
+            vec3 qwo, qwi;
+            bool qsmp, radiance;
+            uint fl;
+            if (pdf_walk) {
+              top = e != 2 && e != 3;
+              qwo = e == 1 ? wi : (e == 2 || e == 3 ? -wos.wi : (e == 4 ? -rs.wi : wo));
+              qwi = e == 2 ? -wis.wi : wi;
+              qsmp = draw;
+              radiance = e != 1;
+              fl = e < 0 ? SAMPLE_R : (e <= 1 ? SAMPLE_T : SAMPLE_ALL);
+            } else if (f_walk) {
+              top = entrance || e >= 2 || (e == 1 && at_exit);
+              qwo = entrance ? (e == -1 ? wi : wo) : (nee_pdf ? wi : -w);
+              qwi = entrance ? wi : (e == 0 ? -wis.wi : (nee_pdf ? -w : wi));
+              qsmp = entrance ? e >= -2 : e == 1;
+              radiance = entrance ? e != -1 : !nee_pdf;
+              fl = entrance ? (e == -3 ? SAMPLE_ALL : SAMPLE_T) : (e >= 2 ? SAMPLE_T : SAMPLE_R);
+            } else {
+              top = z != 0.0;
+              qwo = -w;
+              qwi = vec3(0.0);
+              qsmp = true;
+              radiance = true;
+              fl = SAMPLE_ALL;
+            }
+            BsdfSample t = layer_query(y, top, qwo, qwi, ur.x, ur.yz, qsmp, radiance, fl);
+            if (pdf_walk) {
+              bool t_ok = t.flags != 0u && nonzero(t.f) && t.pdf > 0.0;
+              if (e < 0) {
+                pdf_sum = float(y.n_samples) * t.pdf;
+              } else if (e == 0) {
+                wos = t;
+                wos_ok = t_ok;
+              } else if (e == 1) {
+                wis = t;
+                wis_ok = t_ok;
+              } else if (e == 2) {
+                r_pdf = t.pdf;
+              } else if (e == 3) {
+                rs = t;
+                rs_ok = t_ok;
+              } else {
+                t_pdf = t.pdf;
+              }
+            } else if (!f_walk) {
+              // Sample_f: the entrance's reflection is returned as is; a transmission through
+              // the top ends the walk with its sample.
+              if (!walk_sample_ok(t)) {
+                stop = true;
+                break;
+              }
+              if (depth < 0) {
+                if ((t.flags & BSDF_REFLECTION) != 0u) {
+                  if (flip) t.wi = -t.wi;
+                  t.pdf_is_proportional = true;
+                  bs_out = t;
+                  stop = true;
+                  break;
+                }
+                w = t.wi;
+                specular_path = (t.flags & BSDF_SPECULAR) != 0u;
+                sf = t.f * abs(t.wi.z);
+                spdf = t.pdf;
+              } else {
+                sf *= t.f;
+                spdf *= t.pdf;
+                specular_path = specular_path && (t.flags & BSDF_SPECULAR) != 0u;
+                w = t.wi;
+                if ((t.flags & BSDF_TRANSMISSION) != 0u) {
+                  uint flags = same_hemisphere(wo, w) ? BSDF_REFLECTION : BSDF_TRANSMISSION;
+                  flags |= specular_path ? BSDF_SPECULAR : BSDF_GLOSSY;
+                  if (flip) w = -w;
+                  layer_renormalize(sf, spdf);
+                  bs_out = BsdfSample(sf, spdf, w, flags, 1.0, true);
+                  stop = true;
+                  break;
+                }
+                sf *= abs(t.wi.z);
+              }
+            } else if (e == -3) {
               f = float(y.n_samples) * vec3(t.f.x);
             } else if (entrance) {
               if (!walk_sample_ok(t)) {
@@ -289,188 +434,59 @@ vec3 layered_f(Lobe L, vec3 wo, vec3 wi, uvec4 key) {
             }
           }
           ++e;
-          if ((depth < 0 && e == 0) || e >= 4 || (e >= 2 && !exit_nee)) break;
+          if (pdf_walk ? (e >= 5 || (e == 2 && !(wos_ok && wis_ok)) || (e == 3 && top_spec) ||
+                          (e == 4 && !rs_ok))
+                       : (!f_walk || (depth < 0 && e == 0) || e >= 4 || (e >= 2 && !exit_nee)))
+            break;
         }
       }
       if (stop) break;
-      if (depth < 0) {
+      if (mode == LAYER_WALK_PDF) {
+        // The sample's TRT estimate; PDF's walk is this one step.
+        if (wos_ok && wis_ok) {
+          if (top_spec) {
+            pdf_sum += r_pdf;
+          } else if (rs_ok) {
+            if (!bottom_nonspecular(y)) {
+              pdf_sum += t_pdf;
+            } else {
+              pdf_sum += layer_power(wis.pdf, r_pdf) * r_pdf;
+              pdf_sum += layer_power(rs.pdf, t_pdf) * t_pdf;
+            }
+          }
+        }
+        break;
+      }
+      if (mode == LAYER_WALK_F && depth < 0) {
         // Into the slab along the sampled transmission (pbrt-v4's walk start).
         beta = wos.f * abs(wos.wi.z) / wos.pdf;
         w = wos.wi;
       }
       ++depth;
       if (depth >= y.max_depth) break;
-      // Russian roulette for the next step (pbrt-v4's at its start: the same draw, in order)
-      if (depth > 3 && max_component(beta) < 0.25) {
-        float q = max(0.0, 1.0 - max_component(beta));
-        if (layer_rn(key, j, 1u).x < q) break;
-        beta /= 1.0 - q;
+      // Russian roulette for the next step (pbrt-v4's at its start: the same draw, in order);
+      // Sample_f's (f, pdf) renormalised first.
+      if (mode == LAYER_WALK_SAMPLE) layer_renormalize(sf, spdf);
+      float rr = mode == LAYER_WALK_SAMPLE ? layer_rr_beta(sf, spdf) : max_component(beta);
+      if (depth > 3 && rr < 0.25) {
+        float q = max(0.0, 1.0 - rr);
+        if (layer_rn(walk_key, j, 1u).x < q) break;
+        if (mode == LAYER_WALK_SAMPLE) spdf *= 1.0 - q;
+        else beta /= 1.0 - q;
       }
     }
     ++s;
-    if (s >= y.n_samples) break;
-  }
-  return y.n_samples > 0 ? f / float(y.n_samples) : vec3(0.0);  // pbrt-v4: 0 / 0
-}
-
-// Rescales Sample_f's (f, pdf) by one power of two (exact: f / pdf keeps every bit) to pdf in
-// [0.5, 1) when pdf leaves [2^-32, 2^32], so that a long walk over sharp lobes neither
-// overflows (f = pdf = inf) nor underflows (docs/materials-spec.md 2.3; the pdf is proportional).
-void layer_renormalize(inout vec3 f, inout float pdf) {
-  if (!(pdf > 4294967296.0 || pdf < 2.3283064365386963e-10) || pdf == 0.0) return;
-  int e;
-  frexp(pdf, e);
-  f = ldexp(f, ivec3(-e));
-  pdf = ldexp(pdf, -e);
-}
-
-// pbrt-v4 LayeredBxDF::Sample_f (radiance mode): the first interface sample (step -1) uses
-// (uc, u), the walk the stream `key`; pdf_is_proportional on every sample.
-BsdfSample layered_sample(Lobe L, vec3 wo, float uc, vec2 u, uvec4 key) {
-  bool flip_wi = false;
-  if (wo.z < 0.0) {
-    wo = -wo;
-    flip_wi = true;
-  }
-  Layers y = layers_of(L);
-  uint j = 0u;
-  vec3 w = -wo;  // step -1 samples the top at -w = wo
-  bool specular_path = false;
-  precise vec3 f = vec3(1.0);
-  precise float pdf = 1.0;
-  float z = y.thickness;
-  bool has_albedo = nonzero(y.albedo);
-  for (int depth = -1; depth < y.max_depth; ++depth) {
-    vec3 ur = vec3(uc, u);
-    if (depth >= 0) {
-      layer_renormalize(f, pdf);
-      precise float rr_beta = max_component(f) / pdf;
-      if (depth > 3 && rr_beta < 0.25) {
-        float q = max(0.0, 1.0 - rr_beta);
-        if (layer_rn(key, j, 1u).x < q) return no_sample();
-        pdf *= 1.0 - q;
-      }
-      if (w.z == 0.0) return no_sample();
-      if (has_albedo) {
-        float sigma_t = 1.0;
-        precise float dz = -log(1.0 - layer_rn(key, j, 1u).x) / (sigma_t / abs(w.z));
-        precise float zp = w.z > 0.0 ? (z + dz) : (z - dz);
-        if (zp == z) return no_sample();
-        if (0.0 < zp && zp < y.thickness) {
-          vec3 up = layer_rn(key, j, 2u);
-          float ps_pdf;
-          vec3 ps_wi = hg_sample(-w, y.g, up.xy, ps_pdf);
-          if (ps_pdf == 0.0 || ps_wi.z == 0.0) return no_sample();
-          f *= y.albedo * ps_pdf;
-          pdf *= ps_pdf;
-          specular_path = false;
-          w = ps_wi;
-          z = zp;
-          continue;
-        }
-        z = clamp(zp, 0.0, y.thickness);
-      } else {
-        z = (z == y.thickness) ? 0.0 : y.thickness;
-        f *= layer_tr(y.thickness, w);
-      }
-      ur = layer_rn(key, j, 3u);
+    if (mode == LAYER_WALK_SAMPLE || s >= y.n_samples) {
+      if (mode == LAYER_WALK_F) f_out = f / float(y.n_samples);
+      if (mode == LAYER_WALK_PDF) pdf_out = layer_pdf_mix(pdf_sum / float(y.n_samples));
+      if (mode != LAYER_WALK_F || !want_pdf) break;
+      // f's walk done: PDF's, from the start of its own stream.
+      mode = LAYER_WALK_PDF;
+      walk_key = pdf_key;
+      j = 0u;
+      s = 0;
     }
-    BsdfSample is = layer_query(y, z != 0.0, -w, vec3(0.0), ur.x, ur.yz, true, true, SAMPLE_ALL);
-    if (!walk_sample_ok(is)) return no_sample();
-    if (depth < 0) {
-      // The entrance: a reflection is returned as is.
-      if ((is.flags & BSDF_REFLECTION) != 0u) {
-        if (flip_wi) is.wi = -is.wi;
-        is.pdf_is_proportional = true;
-        return is;
-      }
-      w = is.wi;
-      specular_path = (is.flags & BSDF_SPECULAR) != 0u;
-      f = is.f * abs(is.wi.z);
-      pdf = is.pdf;
-      continue;
-    }
-    f *= is.f;
-    pdf *= is.pdf;
-    specular_path = specular_path && (is.flags & BSDF_SPECULAR) != 0u;
-    w = is.wi;
-    if ((is.flags & BSDF_TRANSMISSION) != 0u) {
-      uint flags = same_hemisphere(wo, w) ? BSDF_REFLECTION : BSDF_TRANSMISSION;
-      flags |= specular_path ? BSDF_SPECULAR : BSDF_GLOSSY;
-      if (flip_wi) w = -w;
-      layer_renormalize(f, pdf);
-      return BsdfSample(f, pdf, w, flags, 1.0, true);
-    }
-    f *= abs(is.wi.z);
   }
-  return no_sample();
-}
-
-// pbrt-v4 LayeredBxDF::PDF's final Lerp(0.9, 1 / (4 pi), estimate). (A function of its own:
-// glslang's precise propagation through layered_pdf's loop exhausts memory.)
-precise float layer_pdf_mix(float estimate) { return (1.0 - 0.9) * INV_4PI + 0.9 * estimate; }
-
-// pbrt-v4 LayeredBxDF::PDF (radiance mode) with random numbers from stream `key`: the mixture
-// 0.1 / (4 pi) + 0.9 (stochastic estimate). For wi on the other side the estimate (pbrt-v4's TT
-// term) is always 0, the bottom never transmitting: 0.1 / (4 pi).
-float layered_pdf(Lobe L, vec3 wo, vec3 wi, uvec4 key) {
-  if (wo.z < 0.0) {
-    wo = -wo;
-    wi = -wi;
-  }
-  if (!same_hemisphere(wo, wi)) {
-    return layer_pdf_mix(0.0);
-  }
-  Layers y = layers_of(L);
-  uint j = 0u;
-  float pdf_sum = 0.0;
-  bool top_spec_only = mf_smooth(y.top);  // !IsNonSpecular(top.Flags())
-  // End tests at the end of a pass, as in layered_f.
-  int s = 0;
-  if (y.n_samples > 0) [[dont_unroll]] while (true) {
-    // TRT term through one layer_query call site: k = -1 (first sample only), reflection pdf
-    // of the entrance x nSamples; k = 0, 1, transmission through the top for wo and wi (both
-    // always drawn); k = 2, bottom pdf(-wos.wi, -wis.wi); k = 3, bottom sample at -wos.wi;
-    // k = 4, top pdf(-rs.wi, wi).
-    BsdfSample wos, wis, rs;
-    float r_pdf = 0.0, t_pdf = 0.0;
-    bool wos_ok = false, wis_ok = false, rs_ok = false;
-    int k = s == 0 ? -1 : 0;
-    [[dont_unroll]] while (true) {
-      bool smp = k == 0 || k == 1 || k == 3;
-      vec3 ur = smp ? layer_rn(key, j, 3u) : vec3(0.0);
-      vec3 qwo = k == 1 ? wi : (k == 2 || k == 3 ? -wos.wi : (k == 4 ? -rs.wi : wo));
-      uint fl = k < 0 ? SAMPLE_R : (k <= 1 ? SAMPLE_T : SAMPLE_ALL);
-      BsdfSample t = layer_query(y, k != 2 && k != 3, qwo, k == 2 ? -wis.wi : wi, ur.x, ur.yz,
-                                 smp, k != 1, fl);
-      bool t_ok = t.flags != 0u && nonzero(t.f) && t.pdf > 0.0;
-      if (k < 0) pdf_sum = float(y.n_samples) * t.pdf;
-      else if (k == 0) { wos = t; wos_ok = t_ok; }
-      else if (k == 1) { wis = t; wis_ok = t_ok; }
-      else if (k == 2) r_pdf = t.pdf;
-      else if (k == 3) { rs = t; rs_ok = t_ok; }
-      else t_pdf = t.pdf;
-      ++k;
-      if (k >= 5 || (k == 2 && !(wos_ok && wis_ok)) || (k == 3 && top_spec_only) ||
-          (k == 4 && !rs_ok))
-        break;
-    }
-    if (wos_ok && wis_ok) {
-      if (top_spec_only) {
-        pdf_sum += r_pdf;
-      } else if (rs_ok) {
-        if (!bottom_nonspecular(y)) {
-          pdf_sum += t_pdf;
-        } else {
-          pdf_sum += layer_power(wis.pdf, r_pdf) * r_pdf;
-          pdf_sum += layer_power(rs.pdf, t_pdf) * t_pdf;
-        }
-      }
-    }
-    ++s;
-    if (s >= y.n_samples) break;
-  }
-  return layer_pdf_mix(y.n_samples > 0 ? pdf_sum / float(y.n_samples) : 0.0);
 }
 
 #endif

@@ -634,7 +634,7 @@ TEST(PlainVariant, PrunedAtBuildTime) {
     EXPECT_FALSE(names(wavefront_shade_plain_spv, sizeof(wavefront_shade_plain_spv), f)) << f;
   }
   EXPECT_TRUE(names(render_lean_plain_spv, sizeof(render_lean_plain_spv), "path_bounce"));
-  EXPECT_TRUE(names(wavefront_shade_plain_spv, sizeof(wavefront_shade_plain_spv), "layered_f"));
+  EXPECT_TRUE(names(wavefront_shade_plain_spv, sizeof(wavefront_shade_plain_spv), "layered_query"));
   EXPECT_LT(sizeof(render_lean_plain_spv), sizeof(render_lean_spv) * 3 / 4);
   EXPECT_LT(sizeof(wavefront_shade_plain_spv), sizeof(wavefront_shade_spv) * 3 / 4);
 }
@@ -868,6 +868,34 @@ TEST(Specialisation, InlinesLargeModulesOnly) {
       render_lean_spv, sizeof(render_lean_spv),
       {gpu::FEATURE_TRIANGLES | gpu::FEATURE_LIGHT_AREA | gpu::FEATURE_MAT_DIFFUSE, 0u, 1u, 1u}, 0);
   EXPECT_EQ(count(all), std::make_pair(1, 0));
+}
+
+// The layered walks (f, PDF and Sample_f) reach their interfaces through one call site of
+// layer_query, so that a pipeline inlines one interface for the three (layered.glsl,
+// layered_query; docs/performance.md, seventeenth session): in the shade module as built, the
+// function named layer_query is called by exactly one OpFunctionCall, and so is
+// layered_query.
+TEST(Specialisation, LayeredWalksShareOneInterfaceCallSite) {
+  const std::vector<std::uint32_t> w(wavefront_shade_spv,
+                                     wavefront_shade_spv + sizeof(wavefront_shade_spv) / 4);
+  // SPIR-V: 5 header words, then instructions whose first word holds the word count above the
+  // opcode; OpName 5 (target, then the name as a nul-terminated string), OpFunctionCall 57
+  // (result type, result, function, arguments).
+  auto calls_of = [&w](const std::string& name) {
+    std::uint32_t id = 0;
+    int calls = 0;
+    for (std::size_t i = 5; i < w.size() && (w[i] >> 16) != 0; i += w[i] >> 16) {
+      const std::uint32_t op = w[i] & 0xffffu, n = w[i] >> 16;
+      if (op == 5u && n > 2) {
+        const std::string s(reinterpret_cast<const char*>(&w[i + 2]));
+        if (s.rfind(name + "(", 0) == 0) id = w[i + 1];
+      }
+      if (op == 57u && id != 0 && w[i + 3] == id) ++calls;
+    }
+    return std::make_pair(id != 0, calls);
+  };
+  EXPECT_EQ(calls_of("layer_query"), std::make_pair(true, 1));
+  EXPECT_EQ(calls_of("layered_query"), std::make_pair(true, 1));
 }
 
 // Inlining changes no result: materials-coated, whose shade modules are above the bound,
