@@ -5,11 +5,13 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <condition_variable>
 #include <cmath>
 #include <cstring>
 #include <exception>
 #include <future>
 #include <memory>
+#include <mutex>
 #include <atomic>
 #include <thread>
 #include <numeric>
@@ -446,21 +448,56 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     // fewer cores than pipelines each is then made by the time the queue's thread reaches it,
     // instead of all being made slowly at once (material-zoo on 2 cores: 3.45 -> 3.08 s).
     const std::size_t cores = std::max(2u, std::thread::hardware_concurrency());
-    // On lavapipe, with two shade groups or more, group 0's pipeline (without the layered
-    // walks: the smaller) is compiled by a second device (CompileDevice) while this device's
-    // queue compiles the others; it comes last here, so this queue finds its code in Mesa's
-    // shader cache once it has compiled the rest.
+    // On lavapipe, with two shade groups or more, one shade pipeline is compiled by a second
+    // device (CompileDevice) while this device's queue compiles the others; this queue then
+    // finds its code in Mesa's shader cache. With exactly two shade groups both are
+    // specialised first, side by side, and the larger module goes to the second device (the
+    // longest chain of work starts first, and this queue compiles the smaller one and the
+    // extend stage meanwhile: docs/performance.md, "Shade groups first, the larger on the
+    // second device"); with more, group 0's pipeline comes last and goes there.
     std::unique_ptr<CompileDevice> compiler;
-    if (ctx_.info().is_cpu && stages.size() >= 3 && stages[1] == 0 && parallel_compile &&
-        CompileDevice::shader_cache_on()) {
+    const std::size_t shade_stages =
+        std::size_t(std::count_if(stages.begin(), stages.end(),
+                                  [](std::uint32_t g) { return g < kWfGroups; }));
+    const bool by_size = ctx_.info().is_cpu && shade_stages == 2 && parallel_compile &&
+                         CompileDevice::shader_cache_on();
+    if (by_size) {
+      compiler = std::make_unique<CompileDevice>(ctx_);
+      std::stable_partition(stages.begin(), stages.end(),
+                            [](std::uint32_t g) { return g < kWfGroups; });
+    } else if (ctx_.info().is_cpu && stages.size() >= 3 && stages[1] == 0 && parallel_compile &&
+               CompileDevice::shader_cache_on()) {
       compiler = std::make_unique<CompileDevice>(ctx_);
       std::rotate(stages.begin() + 1, stages.begin() + 2, stages.end());
     }
-    const auto on_second = [&](std::size_t i) { return compiler && i + 1 == stages.size(); };
+    const auto on_second = [&](std::size_t i) {
+      return compiler && !by_size && i + 1 == stages.size();
+    };
+    // The two shade groups' sizes once both are specialised (by_size: stages 0 and 1, made on
+    // two workers at once); a stage whose specialisation failed arrives with size 0.
+    struct Meeting {
+      std::mutex m;
+      std::condition_variable cv;
+      std::size_t words[2] = {0, 0};
+      bool here[2] = {false, false};
+      /// Records stage \p i's size and waits for the other's: true if \p i's is the larger.
+      bool larger(std::size_t i, std::size_t size) {
+        std::unique_lock<std::mutex> lock(m);
+        if (!here[i]) words[i] = size;
+        here[i] = true;
+        cv.notify_all();
+        cv.wait(lock, [&] { return here[1 - i]; });
+        return words[i] > words[1 - i] || (words[i] == words[1 - i] && i == 0);
+      }
+    } meeting;
     const std::size_t workers = std::min(stages.size(), cores);
     std::vector<std::promise<Pipeline>> promised(stages.size());
     std::vector<std::future<Pipeline>> made;
     for (auto& p : promised) made.push_back(p.get_future());
+    // Which pipelines are made (1) and dispatched (2): the queue takes them as they come.
+    std::mutex made_m;
+    std::condition_variable made_cv;
+    std::vector<char> state(stages.size(), 0);
     std::atomic<std::size_t> next{0};
     std::vector<std::thread> threads;
     for (std::size_t w = 0; w < workers; ++w)
@@ -473,8 +510,8 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
             std::memset(wf_lists_.mapped, 0, wf_lists_.size);
             break;
           }
+          const std::uint32_t g = stages[i];
           try {
-            const std::uint32_t g = stages[i];
             promised[i].set_value(
                 g == kExtend
                     ? (plain ? make_pipeline(wavefront_extend_plain_spv,
@@ -486,19 +523,41 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
                     ? make_pipeline(wavefront_escape_spv, sizeof(wavefront_escape_spv), features,
                                     features2, wf_bindings_, wf_path_view_)
                     : make_wf_shade(wf_group_words(g), on_second(i) ? compiler.get() : nullptr,
-                                    [this, g](std::size_t words) {
+                                    [&, g, i](std::size_t words, CompileDevice*& second) {
                                       wf_group_words_size_[g] = words;  // this worker's own
+                                      if (by_size)
+                                        second = meeting.larger(i, words) ? compiler.get()
+                                                                          : nullptr;
+                                      if (second)  // one stage's worker only
+                                        second_device_materials = wf_group_words(g).first &
+                                                                  material_bits();
                                       return true;
                                     }));
           } catch (...) {
+            if (by_size && i < 2) meeting.larger(i, 0);  // the other stage waits for no size
             promised[i].set_exception(std::current_exception());
           }
+          {
+            const std::lock_guard<std::mutex> lock(made_m);
+            state[i] = 1;
+          }
+          made_cv.notify_one();
         }
       });
-    // In order, each compiled by an empty dispatch as soon as it is created; on an error every
-    // thread is waited for and what they made is destroyed before it is passed on.
+    // Each compiled by an empty dispatch as soon as it is made, the first made first; on an
+    // error every thread is waited for and what they made is destroyed before it is passed on.
     std::exception_ptr error;
-    for (std::size_t i = 0; i < stages.size(); ++i) {
+    for (std::size_t n = 0; n < stages.size(); ++n) {
+      std::size_t i = 0;
+      {
+        std::unique_lock<std::mutex> lock(made_m);
+        made_cv.wait(lock, [&] {
+          for (i = 0; i < stages.size(); ++i)
+            if (state[i] == 1) return true;
+          return false;
+        });
+        state[i] = 2;
+      }
       Pipeline p;
       try {
         p = made[i].get();
@@ -571,7 +630,7 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
                                                  std::uint32_t features, std::uint32_t features2,
                                                  const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings,
                                                  vk::BufferView wf_paths, CompileDevice* compiler,
-                                                 const std::function<bool(std::size_t)>& accept) {
+                                                 const std::function<bool(std::size_t, CompileDevice*&)>& accept) {
   auto& dev = ctx_.device;
   Pipeline p;
   std::vector<vk::DescriptorSetLayoutBinding> layout_bindings;
@@ -621,7 +680,7 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
     spirv = specialised.data();
     bytes = specialised.size() * sizeof(std::uint32_t);
   }
-  if (accept && !accept(bytes / sizeof(std::uint32_t))) {
+  if (accept && !accept(bytes / sizeof(std::uint32_t), compiler)) {
     dev.destroyPipelineLayout(p.layout);
     dev.destroyDescriptorSetLayout(p.set_layout);
     return Pipeline{};
@@ -751,7 +810,7 @@ std::pair<std::uint32_t, std::uint32_t> GpuRenderer::wf_group_words(std::uint32_
 
 GpuRenderer::Pipeline GpuRenderer::make_wf_shade(std::pair<std::uint32_t, std::uint32_t> words,
                                                  CompileDevice* compiler,
-                                                 const std::function<bool(std::size_t)>& accept) {
+                                                 const std::function<bool(std::size_t, CompileDevice*&)>& accept) {
   return plain ? make_pipeline(wavefront_shade_plain_spv, sizeof(wavefront_shade_plain_spv),
                                words.first, words.second, wf_bindings_, wf_path_view_, compiler,
                                accept)
@@ -785,7 +844,7 @@ void GpuRenderer::wf_choose_solo() {
   wf_solo_made_ = std::async(std::launch::async, [this, words = solo_words, most] {
     CompileDevice compiler(ctx_);  // used on a cold cache only (make_pipeline)
     return make_wf_shade(words, &compiler,
-                         [most](std::size_t size) { return double(size) <= most; });
+                         [most](std::size_t size, auto&) { return double(size) <= most; });
   });
   if (solo_pipeline == Solo::at_once) wf_solo_made_.wait();
 }
@@ -810,7 +869,7 @@ GpuRenderer::Pipeline& GpuRenderer::wf_shade(std::uint32_t type) {
   const std::uint32_t group = wf_group_of(type);
   Pipeline& p = wf_shade_.at(group);
   if (p.pipeline) return p;
-  p = make_wf_shade(wf_group_words(group), nullptr, [this, group](std::size_t words) {
+  p = make_wf_shade(wf_group_words(group), nullptr, [this, group](std::size_t words, auto&) {
     wf_group_words_size_[group] = words;
     return true;
   });

@@ -126,6 +126,13 @@ class GpuRenderer {
   /// Pipelines compiled on a second device (CompileDevice): at construction 0 or 1, and later
   /// the solo pipeline's (solo_pipeline) on a cold cache.
   std::uint32_t second_device_compiles = 0;
+  /// The MATERIAL_* types whose shade pipeline the constructor had compiled on the second
+  /// device (their group's material bits; 0 if none), and the size in words of the specialised
+  /// module of \p type's shade group (0 until that pipeline is made).
+  std::uint32_t second_device_materials = 0;
+  std::size_t shade_module_words(std::uint32_t type) const {
+    return wf_group_words_size_.empty() ? 0u : wf_group_words_size_.at(wf_group_of(type));
+  }
   /// \brief The feature words the shade pipeline of MATERIAL_* \p type is specialised for
   ///        (wavefront only: the scene's, with the material bits and the texture families of
   ///        its group).
@@ -166,12 +173,13 @@ class GpuRenderer {
   /// \brief A compute pipeline of \p spirv specialised for \p features, \p features2 (the
   ///        wavefront's stages with \p wf_paths bound; compiled on \p compiler as well on a
   ///        cold cache). \p accept, if given, is called with the specialised module's size in
-  ///        words: false makes nothing and returns an empty Pipeline.
+  ///        words and the compiler, which it may change: false makes nothing and returns an
+  ///        empty Pipeline.
   Pipeline make_pipeline(const std::uint32_t* spirv, std::size_t bytes, std::uint32_t features,
                          std::uint32_t features2,
                          const std::vector<std::pair<std::uint32_t, Buffer*>>& bindings,
                          vk::BufferView wf_paths = {}, CompileDevice* compiler = nullptr,
-                         const std::function<bool(std::size_t)>& accept = {});
+                         const std::function<bool(std::size_t, CompileDevice*&)>& accept = {});
   void destroy_pipeline(Pipeline& p);
   void dispatch(Pipeline& p, const gpu::PassConstants& pc, std::uint32_t invocations);
 
@@ -226,7 +234,7 @@ class GpuRenderer {
   ///        build when \c plain).
   Pipeline make_wf_shade(std::pair<std::uint32_t, std::uint32_t> words,
                          CompileDevice* compiler = nullptr,
-                         const std::function<bool(std::size_t)>& accept = {});
+                         const std::function<bool(std::size_t, CompileDevice*&)>& accept = {});
   std::vector<std::size_t> wf_group_words_size_;  // per group: its specialised module's words
   /// \brief The shade pipeline of MATERIAL_* \p type, built if it is not yet.
   Pipeline& wf_shade(std::uint32_t type);
