@@ -299,7 +299,7 @@ void CompileDevice::compile(const std::uint32_t* code, std::size_t bytes,
                             const std::vector<vk::DescriptorSetLayoutBinding>& bindings,
                             const std::vector<TexelBinding>& texels,
                             const std::vector<std::uint8_t>& push,
-                            const std::function<void()>& meanwhile) {
+                            const std::function<void(const std::function<bool()>&)>& meanwhile) {
   const std::uint32_t push_bytes = std::uint32_t(push.size());
   const std::lock_guard<std::mutex> lock(mutex_);
   const vk::DescriptorSetLayout set_layout = device_.createDescriptorSetLayout(
@@ -383,7 +383,7 @@ void CompileDevice::compile(const std::uint32_t* code, std::size_t bytes,
   // This device's queue thread compiles while the caller's work runs here.
   std::exception_ptr error;
   if (meanwhile) try {
-      meanwhile();
+      meanwhile([this] { return device_.getFenceStatus(fence_) == vk::Result::eSuccess; });
     } catch (...) {
       error = std::current_exception();
     }

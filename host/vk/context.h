@@ -115,12 +115,13 @@ class CompileDevice {
   ///        binds each storage buffer to a small buffer and the k-th uniform texel buffer to a
   ///        buffer and view as \p texels[k] describes (no memory is touched); dispatches no
   ///        workgroup with push constants \p push (lavapipe compiles the shader all the same);
-  ///        calls \p meanwhile while this device's queue compiles, then waits and destroys the
-  ///        pipeline. Calls from several threads take turns.
+  ///        calls \p meanwhile while this device's queue compiles (with a function that tells
+  ///        whether the compile has ended), then waits and destroys the pipeline. Calls from
+  ///        several threads take turns.
   void compile(const std::uint32_t* code, std::size_t bytes, const vk::SpecializationInfo& spec,
                const std::vector<vk::DescriptorSetLayoutBinding>& bindings,
                const std::vector<TexelBinding>& texels, const std::vector<std::uint8_t>& push,
-               const std::function<void()>& meanwhile = {});
+               const std::function<void(const std::function<bool()>&)>& meanwhile = {});
 
  private:
   void release_texel_buffers();

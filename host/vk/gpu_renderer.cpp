@@ -494,10 +494,24 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
     std::vector<std::promise<Pipeline>> promised(stages.size());
     std::vector<std::future<Pipeline>> made;
     for (auto& p : promised) made.push_back(p.get_future());
-    // Which pipelines are made (1) and dispatched (2): the queue takes them as they come.
+    // Which pipelines are made (1), being compiled by this device's queue (2) and compiled (3):
+    // the queue takes them as they come.
     std::mutex made_m;
     std::condition_variable made_cv;
     std::vector<char> state(stages.size(), 0);
+    // This device's copy of the pipeline compiled on the second device (its translation, a
+    // core's work) is made once one of the two queues has nothing left to compile: this one
+    // has compiled every other stage, or the second device its pipeline. Before that both
+    // queues compile, on the two cores of the CI machine, and a third thread would slow the
+    // longer of them (docs/performance.md, "Shade groups first, the larger on the second
+    // device").
+    if (compiler) second_copy_wait_ = [&](const std::function<bool()>& compiled) {
+      std::unique_lock<std::mutex> lock(made_m);
+      while (!made_cv.wait_for(lock, std::chrono::milliseconds(5), [&] {
+        return std::count(state.begin(), state.end(), char(3)) + 1 >= std::ptrdiff_t(state.size());
+      }) && !compiled()) {
+      }
+    };
     std::atomic<std::size_t> next{0};
     std::vector<std::thread> threads;
     for (std::size_t w = 0; w < workers; ++w)
@@ -541,7 +555,7 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
             const std::lock_guard<std::mutex> lock(made_m);
             state[i] = 1;
           }
-          made_cv.notify_one();
+          made_cv.notify_all();
         }
       });
     // Each compiled by an empty dispatch as soon as it is made, the first made first; on an
@@ -558,24 +572,24 @@ GpuRenderer::GpuRenderer(Context& ctx, const SceneTables& t, std::uint32_t featu
         });
         state[i] = 2;
       }
-      Pipeline p;
       try {
-        p = made[i].get();
+        Pipeline p = made[i].get();
+        (stages[i] == kExtend   ? wf_extend_
+         : stages[i] == kEscape ? wf_escape_
+                                : wf_shade_[stages[i]]) = p;
+        if (!error)
+          dispatch(p, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
       } catch (...) {
         if (!error) error = std::current_exception();
-        continue;
       }
-      (stages[i] == kExtend   ? wf_extend_
-       : stages[i] == kEscape ? wf_escape_
-                              : wf_shade_[stages[i]]) = p;
-      if (error) continue;
-      try {
-        dispatch(p, gpu::PassConstants{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_}, 1);
-      } catch (...) {
-        error = std::current_exception();
+      {
+        const std::lock_guard<std::mutex> lock(made_m);
+        state[i] = 3;
       }
+      made_cv.notify_all();
     }
     for (std::thread& t : threads) t.join();
+    second_copy_wait_ = nullptr;
     if (error) {
       ctx_.device.waitIdle();
       destroy_pipeline(wf_extend_);
@@ -718,7 +732,11 @@ GpuRenderer::Pipeline GpuRenderer::make_pipeline(const std::uint32_t* spirv, std
     const gpu::PassConstants pc{0, 0, 0, 0, stride_, slots_, 0, wf_capacity_};
     std::vector<std::uint8_t> push(sizeof pc);
     std::memcpy(push.data(), &pc, sizeof pc);
-    compiler->compile(spirv, bytes, spec, layout_bindings, texels, push, create);
+    compiler->compile(spirv, bytes, spec, layout_bindings, texels, push,
+                      [&](const std::function<bool()>& compiled) {
+                        if (second_copy_wait_) second_copy_wait_(compiled);
+                        create();
+                      });
     const std::lock_guard<std::mutex> lock(stats_mutex_);
     ++second_device_compiles;
   } else {

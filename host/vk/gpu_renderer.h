@@ -236,6 +236,9 @@ class GpuRenderer {
                          CompileDevice* compiler = nullptr,
                          const std::function<bool(std::size_t, CompileDevice*&)>& accept = {});
   std::vector<std::size_t> wf_group_words_size_;  // per group: its specialised module's words
+  /// Called before this device's copy of a pipeline compiled on the second device is made
+  /// (set by the constructor while it makes the wavefront's pipelines).
+  std::function<void(const std::function<bool()>&)> second_copy_wait_;
   /// \brief The shade pipeline of MATERIAL_* \p type, built if it is not yet.
   Pipeline& wf_shade(std::uint32_t type);
   /// \brief The feature words shade group \p group is specialised for: the scene's, with only
